@@ -1,0 +1,35 @@
+"""The fleet as behaviours see it: a small interface the navigator node implements.
+
+Behaviours receive a :class:`Fleet` through ``setup(fleet=...)`` and never touch Zenoh,
+so a tree can be built, drawn and ticked against any implementation of this interface.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+from shared.messages import FollowStatus, Path, Pose2D, PoseEstimate, RouteReply
+
+
+class Fleet(Protocol):
+    """What mission behaviours may ask of the rest of the fleet."""
+
+    def now(self) -> float:
+        """Fleet time in seconds (simulation time in the simulator)."""
+
+    def request_route(self, goal: Pose2D | None, place: str,
+                      on_done: Callable[[RouteReply | None, str], None]) -> None:
+        """Ask the planner for a route from the current pose; ``on_done(reply, error)`` once."""
+
+    def send_path(self, path: Path) -> None:
+        """Hand a path to the controller."""
+
+    def stop(self) -> None:
+        """Make the controller drop its path and command zero speed."""
+
+    def follow_status(self) -> FollowStatus | None:
+        """The controller's latest progress report."""
+
+    def pose(self) -> PoseEstimate | None:
+        """The latest pose estimate."""

@@ -1,0 +1,44 @@
+"""A timeout decorator on the fleet's clock (py_trees' own Timeout reads the wall clock).
+
+wheelnav runs on simulation time, so every wait in a tree must time out on that clock
+too; the clock is injected as a callable returning seconds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import py_trees
+from py_trees.common import Status
+
+
+class Timeout(py_trees.decorators.Decorator):
+    """Fail (and stop the child) if the child is still RUNNING after ``duration`` seconds.
+
+    Returns the child's status otherwise. When it fires, ``feedback_message`` says "timed
+    out after N s" and ``on_timeout(reason)`` is called, so the reason can reach a report.
+    """
+
+    def __init__(self, name: str, child: py_trees.behaviour.Behaviour, duration: float,
+                 clock: Callable[[], float],
+                 on_timeout: Callable[[str], None] | None = None) -> None:
+        if duration <= 0:
+            raise ValueError(f"{name}: duration must be > 0, got {duration}")
+        super().__init__(name=name, child=child)
+        self.duration = duration
+        self.clock = clock
+        self.on_timeout = on_timeout
+        self.started = 0.0
+
+    def initialise(self) -> None:
+        self.started = self.clock()
+        self.feedback_message = ""
+
+    def update(self) -> Status:
+        if self.decorated.status == Status.RUNNING and self.clock() - self.started > self.duration:
+            self.feedback_message = f"timed out after {self.duration:g} s"
+            self.decorated.stop(Status.INVALID)
+            if self.on_timeout is not None:
+                self.on_timeout(f"{self.decorated.name}: {self.feedback_message}")
+            return Status.FAILURE
+        return self.decorated.status

@@ -1,0 +1,115 @@
+"""The controller's core: follow a path with a pure-pursuit law and the path's speed profile.
+
+A deliberately simple tracker (the MPC replaces it later without touching the wiring):
+it projects the pose onto the path (progress never goes backwards), steers towards a
+point ``lookahead_m`` further on, turns on the spot when that point is far off the
+heading, takes the speed from the path's ``v_ref`` and stops within
+``goal_tolerance_m`` of the last waypoint. A stale pose gives a zero command.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from shared.config import ControllerConfig, RobotConfig
+
+TURN_IN_PLACE_RAD = math.radians(60)
+
+
+@dataclass
+class Command:
+    """One control decision: speeds plus the tracking figures the status reports."""
+
+    v: float
+    w: float
+    state: str  # idle, following, arrived, stale
+    progress: float = 0.0
+    distance_to_goal: float = 0.0
+    cross_track: float = 0.0
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+class PathFollower:
+    """Tracks one path at a time; ``set_path`` replaces it, an empty path means stop."""
+
+    def __init__(self, cfg: ControllerConfig, robot: RobotConfig) -> None:
+        self.cfg = cfg
+        self.robot = robot
+        self.path_id = ""
+        self._pts = np.zeros((0, 2))
+        self._v = np.zeros(0)
+        self._s = np.zeros(0)
+        self._progress_s = 0.0
+        self._arrived = False
+
+    def set_path(self, path_id: str, waypoints: np.ndarray, v_ref: np.ndarray) -> None:
+        """Start following ``waypoints`` (N, 2) with speeds ``v_ref`` (N,)."""
+        self.path_id = path_id
+        self._pts = np.asarray(waypoints, dtype=float)
+        self._v = np.asarray(v_ref, dtype=float)
+        legs = np.linalg.norm(np.diff(self._pts, axis=0), axis=1) if len(self._pts) else []
+        self._s = np.concatenate([[0.0], np.cumsum(legs)]) if len(self._pts) else np.zeros(0)
+        self._progress_s = 0.0
+        self._arrived = False
+
+    @property
+    def active(self) -> bool:
+        return len(self._pts) > 0
+
+    def step(self, x: float, y: float, theta: float, pose_fresh: bool = True) -> Command:
+        """The command for pose (x, y, theta); zero when idle, arrived or the pose is stale."""
+        if not self.active:
+            return Command(0.0, 0.0, "idle")
+        total = float(self._s[-1])
+        s, cross = self._project(np.array([x, y]))
+        self._progress_s = max(self._progress_s, s)
+        goal = self._pts[-1]
+        to_goal = float(math.hypot(goal[0] - x, goal[1] - y))
+        progress = self._progress_s / total if total > 0 else 1.0
+        if self._arrived or (to_goal <= self.cfg.goal_tolerance_m and progress > 0.5):
+            self._arrived = True
+            return Command(0.0, 0.0, "arrived", 1.0, to_goal, cross)
+        if not pose_fresh:
+            return Command(0.0, 0.0, "stale", progress, to_goal, cross)
+        target = self._point_at(self._progress_s + self.cfg.lookahead_m)
+        if to_goal < self.cfg.lookahead_m:
+            target = goal
+        alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - theta)
+        r = self.robot
+        w_max = r.max_turn_rate
+        if abs(alpha) > TURN_IN_PLACE_RAD:
+            w = max(-w_max, min(w_max, self.cfg.heading_gain * alpha))
+            return Command(0.0, w, "following", progress, to_goal, cross)
+        v_ref = float(np.interp(self._progress_s, self._s, self._v))
+        v_ref = max(v_ref, min(0.1, r.max_speed)) if to_goal > self.cfg.goal_tolerance_m else 0.0
+        v = min(v_ref, r.max_speed) * max(0.0, math.cos(alpha))
+        dist = max(float(math.hypot(target[0] - x, target[1] - y)), 1e-6)
+        w = 2.0 * v * math.sin(alpha) / dist  # pure-pursuit curvature times speed
+        w = max(-w_max, min(w_max, w))
+        return Command(v, w, "following", progress, to_goal, cross)
+
+    def _project(self, p: np.ndarray) -> tuple[float, float]:
+        """Arc length of the closest path point at or ahead of current progress, and distance."""
+        a, b = self._pts[:-1], self._pts[1:]
+        if len(a) == 0:
+            return 0.0, float(np.linalg.norm(p - self._pts[0]))
+        d = b - a
+        seg_len2 = np.maximum((d * d).sum(axis=1), 1e-12)
+        t = np.clip(((p - a) * d).sum(axis=1) / seg_len2, 0.0, 1.0)
+        closest = a + d * t[:, None]
+        dist = np.linalg.norm(closest - p, axis=1)
+        s = self._s[:-1] + t * np.sqrt(seg_len2)
+        window = s >= self._progress_s - 0.5  # no jumping back along the path
+        dist = np.where(window, dist, np.inf)
+        i = int(np.argmin(dist))
+        return float(s[i]), float(dist[i])
+
+    def _point_at(self, s: float) -> np.ndarray:
+        s = min(s, float(self._s[-1]))
+        return np.array([np.interp(s, self._s, self._pts[:, 0]), np.interp(s, self._s, self._pts[:, 1])])

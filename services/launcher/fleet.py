@@ -1,0 +1,46 @@
+"""The fleet, defined once: which services exist, how each is started, in which profile.
+
+``wheelnav up`` starts these as child processes; ``docker-compose.yml`` is generated
+from the same table (``wheelnav compose``) and a test checks the committed file matches.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+ROUTER_PORT = 7447
+
+
+@dataclass(frozen=True)
+class ServiceSpec:
+    """One service process: its module and the deployment profiles it belongs to."""
+
+    name: str
+    module: str
+    profiles: tuple[str, ...]
+    doc: str
+
+    def command(self, config: str, connect: str) -> list[str]:
+        """The command line that starts it (the same locally and in a container)."""
+        return ["python", "-m", self.module, "--config", config, "--connect", connect]
+
+
+SERVICES: tuple[ServiceSpec, ...] = (
+    ServiceSpec("sim", "services.sim.node", ("sim",),
+                "pybullet simulator: clock, odometry, LiDAR, collisions"),
+    ServiceSpec("localisation", "services.localisation.node", ("sim", "hardware"),
+                "pose on the floor map"),
+    ServiceSpec("planner", "services.planner.node", ("sim", "hardware"), "routes on the site maps"),
+    ServiceSpec("controller", "services.controller.node", ("sim", "hardware"),
+                "path tracking: velocity commands"),
+    ServiceSpec("navigator", "services.navigator.node", ("sim", "hardware"),
+                "mission behaviour tree"),
+)
+PROFILES = ("sim", "hardware")
+
+
+def services_for(profile: str) -> list[ServiceSpec]:
+    """The services of ``profile``; ValueError naming the known profiles otherwise."""
+    if profile not in PROFILES:
+        raise ValueError(f"unknown profile {profile!r} (known: {', '.join(PROFILES)})")
+    return [s for s in SERVICES if profile in s.profiles]

@@ -1,0 +1,33 @@
+"""``wheelnav mission``: argument parsing for the mission runner."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from services.mission.core import load_scenario
+from services.mission.node import MissionRun, format_report, write_report
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("mission", help="run the fleet for one scenario and report",
+                       description="Run the fleet for one scenario (docs/scenarios.md) and report.")
+    p.add_argument("scenario", help="scenario YAML")
+    p.add_argument("--report", metavar="FILE", help="write the JSON report here")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                   help="override one fleet config value (repeatable)")
+    p.add_argument("--quiet", action="store_true", help="only print the report")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    scenario = load_scenario(args.scenario, args.overrides)
+    report = MissionRun(scenario, quiet=args.quiet).run()
+    if args.report:
+        write_report(report, args.report)
+    print(json.dumps(report, indent=2) if args.json else format_report(report))
+    if args.report:
+        print(f"report written to {args.report}", file=sys.stderr)
+    return 0 if report["success"] else 1

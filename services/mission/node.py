@@ -1,0 +1,169 @@
+"""``wheelnav mission``: run the fleet for one scenario and write its report.
+
+Starts a private router on a free loopback port and the sim profile around it, joins
+the lockstep as the ``mission`` participant (so the goal is sent at a fixed simulation
+time), prints progress every few simulated seconds, and ends on success, failure or the
+scenario's time limit. The report is printed and, with ``--report``, written as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+import yaml
+
+from services.launcher.fleet import services_for
+from services.launcher.node import Supervisor, open_router, wait_ready
+from services.mission.core import Recorder, Scenario
+from shared import config as config_mod
+from shared.lockstep import Participant
+from shared.messages import Clock, Event, NavGoal, NavStatus, Odometry, SimStatus
+from shared.topics import Keys
+from shared.transport import Bus
+
+NAME = "mission"
+PROGRESS_EVERY_S = 5.0
+
+
+def free_port() -> int:
+    """A TCP port on loopback that nothing listens on right now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class MissionRun:
+    """One scenario run: fleet up, goal sent at tick 0, recorder fed, fleet down."""
+
+    def __init__(self, scenario: Scenario, out: TextIO = sys.stdout, quiet: bool = False,
+                 fleet_output: TextIO | None = None) -> None:
+        self.scenario = scenario
+        self.out = out
+        self.quiet = quiet
+        self.keys = Keys(scenario.config.robot.name)
+        self.goal_id = f"{scenario.name}-{int(time.time())}"
+        self.recorder = Recorder(self.goal_id)
+        self.done = threading.Event()
+        self.port = free_port()
+        self.fleet_output = fleet_output
+        self.supervisor: Supervisor | None = None
+        self._goal_sent = False
+        self._last_progress = -PROGRESS_EVERY_S
+        self._last_status: NavStatus | None = None
+        self._bus: Bus | None = None
+
+    def run(self) -> dict[str, Any]:
+        """Run to the end and return the report."""
+        cfg = self.scenario.config
+        endpoint = f"tcp/127.0.0.1:{self.port}"
+        wall_start = time.monotonic()
+        with tempfile.TemporaryDirectory(prefix="wheelnav-mission-") as tmp:
+            cfg_path = Path(tmp) / "fleet.yaml"
+            cfg_path.write_text(yaml.safe_dump(config_mod.to_dict(cfg), sort_keys=False))
+            bus = open_router(endpoint)
+            self._wire(bus)
+            specs = services_for("sim")
+            out = self.fleet_output or (_Null() if self.quiet else self.out)
+            self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
+            self._say(f"scenario {self.scenario.name}: fleet starting on {endpoint}")
+            self.supervisor.start()
+            try:
+                missing = wait_ready(bus, self.keys, [s.name for s in specs],
+                                     cfg.launcher.ready_timeout_s, self.done)
+                if missing:
+                    self.recorder.state = "failed"
+                    self.recorder.reason = f"services not up: {', '.join(missing)}"
+                else:
+                    bus.declare_alive(self.keys.key("alive", service=NAME))
+                    wall_limit = self.scenario.time_limit_s * 20 + 120
+                    if not self.done.wait(wall_limit):
+                        self.recorder.state = "failed"
+                        self.recorder.reason = f"no result within {wall_limit:.0f} s of wall time"
+            finally:
+                self.supervisor.stop()
+                bus.close()
+        report = self.recorder.report(self.scenario.name, time.monotonic() - wall_start)
+        return report
+
+    def _wire(self, bus: Bus) -> None:
+        keys = self.keys
+        participant = Participant(NAME, self._stage(), 10.0, self._step,
+                                  lambda ack: bus.publish(keys.ack, ack))
+        self._bus = bus
+        bus.subscribe(keys.clock, Clock, participant.on_clock)
+        bus.subscribe(keys.nav_status, NavStatus, self._on_status)
+        bus.subscribe(keys.sim_status, SimStatus, self.recorder.on_sim_status)
+        bus.subscribe(keys.ground_truth, Odometry,
+                      lambda m: self.recorder.on_truth(m.pose.x, m.pose.y))
+        bus.subscribe(keys.key("events"), Event, self._on_event)
+
+    def _stage(self) -> int:
+        stages = self.scenario.config.sim.lockstep_stages
+        return next((i for i, names in enumerate(stages) if NAME in names), 0)
+
+    def _step(self, clock: Clock) -> None:
+        if not self._goal_sent:
+            s = self.scenario
+            self._bus.publish(self.keys.nav_goal, NavGoal(clock.stamp, self.goal_id, s.goal, s.place))
+            self._goal_sent = True
+            self._say(f"t={clock.stamp:6.1f} s  goal sent: {s.place or s.goal}")
+        self.recorder.on_time(clock.stamp, self.scenario.time_limit_s)
+        if clock.stamp - self._last_progress >= PROGRESS_EVERY_S:
+            self._last_progress = clock.stamp
+            st = self._last_status
+            if st is not None:
+                self._say(f"t={clock.stamp:6.1f} s  {st.state:9s} phase={st.phase or '-':7s} "
+                          f"progress={100 * st.progress:5.1f} %  {st.reason}")
+        if self.recorder.finished:
+            self.done.set()
+
+    def _on_status(self, msg: NavStatus) -> None:
+        self._last_status = msg
+        self.recorder.on_status(msg)
+        if self.recorder.finished:
+            self.done.set()
+
+    def _on_event(self, msg: Event) -> None:
+        self.recorder.events.append({"t": round(msg.stamp, 3), "source": msg.source,
+                                     "kind": msg.kind, "detail": msg.detail})
+
+    def _say(self, text: str) -> None:
+        if not self.quiet:
+            self.out.write(f"[mission] {text}\n")
+            self.out.flush()
+
+
+class _Null:
+    def write(self, _text: str) -> None:
+        pass
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+
+def format_report(report: dict[str, Any]) -> str:
+    """A short human-readable summary of a report."""
+    lines = [f"mission {report['scenario']}: {'SUCCESS' if report['success'] else 'FAILURE'}"
+             f" ({report['reason']})",
+             f"  sim time {report['sim_time_s']:.1f} s, wall time {report['wall_time_s']:.1f} s, "
+             f"path {report['path_length_m']:.2f} m",
+             f"  collisions {report['collisions']}, min clearance "
+             f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m"]
+    for p in report["phases"]:
+        end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
+        lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")
+    return "\n".join(lines)
+
+
+def write_report(report: dict[str, Any], path: str | Path) -> None:
+    Path(path).write_text(json.dumps(report, indent=2) + "\n")

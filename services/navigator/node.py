@@ -1,0 +1,179 @@
+"""Navigator service: runs the mission behaviour tree for each goal it receives.
+
+Ticks the tree at ``navigator.rate_hz`` of fleet time (last lockstep stage), publishes
+NavStatus on every change and at ``navigator.status_rate_hz``. While a route request is
+out, the lockstep answer is held back, so when the route arrives does not depend on
+machine load.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from behaviours.mission import NS, create_mission_tree
+from shared.lockstep import Participant
+from shared.messages import (
+    Clock,
+    FollowStatus,
+    NavGoal,
+    NavStatus,
+    Path,
+    Pose2D,
+    PoseEstimate,
+    RouteReply,
+    RouteRequest,
+)
+from shared.service import Service
+from shared.topics import Keys
+from shared.transport import Bus
+
+NAME = "navigator"
+
+
+class ZenohFleet:
+    """The :class:`behaviours.fleet.Fleet` interface over the bus."""
+
+    def __init__(self, bus: Bus, keys: Keys, route_timeout_s: float) -> None:
+        self.bus = bus
+        self.keys = keys
+        self.route_timeout_s = route_timeout_s
+        self.clock: Clock | None = None
+        self.participant: Participant | None = None
+        self._pose: PoseEstimate | None = None
+        self._follow: FollowStatus | None = None
+
+    def now(self) -> float:
+        return self.clock.stamp if self.clock else 0.0
+
+    def request_route(self, goal: Pose2D | None, place: str,
+                      on_done: Callable[[RouteReply | None, str], None]) -> None:
+        if self._pose is None:
+            on_done(None, "no pose estimate yet")
+            return
+        if self.participant is not None:
+            self.participant.hold()
+
+        def done(reply: RouteReply | None, error: str) -> None:
+            on_done(reply, error)
+            if self.participant is not None:
+                self.participant.release()
+
+        req = RouteRequest(start=self._pose.pose, goal=goal, place=place)
+        self.bus.request(self.keys.route, req, RouteReply, self.route_timeout_s, done)
+
+    def send_path(self, path: Path) -> None:
+        self.bus.publish(self.keys.path, path)
+
+    def stop(self) -> None:
+        empty = Path(self.now(), "", "", np.zeros((0, 2)), np.zeros(0))
+        self.bus.publish(self.keys.path, empty)
+
+    def on_pose(self, msg: PoseEstimate) -> None:
+        self._pose = msg
+
+    def on_follow(self, msg: FollowStatus) -> None:
+        self._follow = msg
+
+    def follow_status(self) -> FollowStatus | None:
+        return self._follow
+
+    def pose(self) -> PoseEstimate | None:
+        return self._pose
+
+
+class Navigator:
+    """One mission at a time: a fresh tree per goal, status on change."""
+
+    def __init__(self, svc: Service, fleet: ZenohFleet) -> None:
+        self.svc = svc
+        self.fleet = fleet
+        self.cfg = svc.cfg.navigator
+        self.tree: py_trees.trees.BehaviourTree | None = None
+        self.status = NavStatus(0.0, "", "idle")
+        self._last_sent: tuple | None = None
+        self._last_sent_at = -1e9
+        self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
+        for key in ("goal", "place", "failure", "phase"):
+            self.bb.register_key(key, access=Access.WRITE)
+
+    def on_goal(self, msg: NavGoal) -> None:
+        if msg.cancel:
+            if self.tree is not None and self.status.state == "running":
+                self.tree.interrupt()
+                self.fleet.stop()
+                self._set("cancelled", reason="cancelled by request")
+            return
+        if msg.goal is None and not msg.place:
+            self.svc.log.warning("goal %s ignored: give a goal pose or a place", msg.goal_id)
+            return
+        if self.tree is not None and self.status.state == "running":
+            self.tree.interrupt()
+        self.bb.goal, self.bb.place, self.bb.failure, self.bb.phase = msg.goal, msg.place, "", ""
+        root = create_mission_tree(self.fleet.now, self.cfg.plan_timeout_s,
+                                   self.cfg.follow_timeout_s)
+        self.tree = py_trees.trees.BehaviourTree(root)
+        self.tree.setup(timeout=5.0, fleet=self.fleet)
+        target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
+        self.svc.log.info("mission %s to %s", msg.goal_id, target)
+        self.status = NavStatus(self.fleet.now(), msg.goal_id, "running")
+
+    def step(self, clock: Clock) -> None:
+        self.fleet.clock = clock
+        if self.tree is not None and self.status.state == "running":
+            self.tree.tick()
+            result = self.tree.root.status
+            if result == Status.SUCCESS:
+                self._set("succeeded", reason="arrived")
+            elif result == Status.FAILURE:
+                self._set("failed", reason=self.bb.failure or "mission failed")
+            else:
+                tip = self.tree.tip()
+                self._set("running", phase=self.bb.phase, action="navigate",
+                          reason=tip.feedback_message if tip else "")
+        self._publish(clock.stamp)
+
+    def _set(self, state: str, **fields) -> None:
+        s = self.status
+        self.status = NavStatus(self.fleet.now(), s.goal_id, state,
+                                fields.get("action", s.action if state == "running" else ""),
+                                fields.get("phase", s.phase), fields.get("reason", ""),
+                                self._progress())
+        if state in ("failed", "succeeded", "cancelled"):
+            self.svc.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
+
+    def _progress(self) -> float:
+        follow = self.fleet.follow_status()
+        return follow.progress if follow else 0.0
+
+    def _publish(self, now: float) -> None:
+        s = self.status
+        signature = (s.goal_id, s.state, s.action, s.phase)
+        due = now - self._last_sent_at >= 1.0 / self.cfg.status_rate_hz
+        if signature != self._last_sent or due:
+            self.status.stamp = now
+            self.svc.bus.publish(self.svc.keys.nav_status, self.status)
+            self._last_sent, self._last_sent_at = signature, now
+
+
+def main(argv: list[str] | None = None) -> None:
+    with Service(NAME, __doc__.splitlines()[0], argv) as svc:
+        keys, bus = svc.keys, svc.bus
+        fleet = ZenohFleet(bus, keys, svc.cfg.navigator.plan_timeout_s)
+        nav = Navigator(svc, fleet)
+
+        bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, fleet.on_pose)
+        bus.subscribe(svc.declare("subscribes", keys.follow_status), FollowStatus, fleet.on_follow)
+        bus.subscribe(svc.declare("subscribes", keys.nav_goal), NavGoal, nav.on_goal)
+        svc.declare("publishes", keys.nav_status)
+        svc.declare("publishes", keys.path)
+        svc.declare("queries", keys.route)
+        fleet.participant = svc.every(svc.cfg.navigator.rate_hz, nav.step)
+        svc.wait()
+
+
+if __name__ == "__main__":
+    main()

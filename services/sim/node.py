@@ -1,0 +1,137 @@
+"""Simulator service: steps the pybullet chair and publishes what a real chair would.
+
+Publishes the clock (in lockstep stages), odometry every tick, LiDAR scans, and for
+evaluation only the ground truth and a collision/clearance status. Listens for velocity
+commands; the chair's watchdog stops it when they stop coming.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from shared.messages import Ack, Clock, Event, Odometry, PointCloud, Pose2D, SimStatus, Twist
+from shared.service import Service
+from shared.site import SiteError, load_site
+from shared.lockstep import Barrier
+from sim.simulation import Simulation
+
+NAME = "sim"
+
+
+def main(argv: list[str] | None = None) -> None:
+    with Service(NAME, __doc__.splitlines()[0], argv) as svc:
+        cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+        try:
+            sim = Simulation(cfg, load_site(cfg.site))
+        except (SiteError, ValueError) as exc:
+            svc.log.error("cannot start: %s", exc)
+            raise SystemExit(2) from None
+        barrier = Barrier(cfg.sim.lockstep_stages)
+        wake = threading.Condition(bus.lock)
+
+        def on_cmd(msg: Twist) -> None:
+            sim.command(msg.v, msg.w)
+
+        def on_ack(msg: Ack) -> None:
+            barrier.ack(msg)
+            wake.notify_all()
+
+        def on_alive(key: str, alive: bool) -> None:
+            barrier.set_alive(key.rsplit("/", 1)[-1], alive)
+            wake.notify_all()
+
+        bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, on_cmd)
+        bus.subscribe(svc.declare("subscribes", keys.ack), Ack, on_ack)
+        bus.watch_alive(keys.key("alive"), on_alive)
+        for name in ("clock", "odom", "scan", "ground_truth", "sim_status"):
+            svc.declare("publishes", keys.key(name))
+
+        if cfg.sim.lockstep:
+            _wait_for_fleet(svc, barrier, wake)
+        _run(svc, sim, barrier, wake)
+        sim.close()
+
+
+def _wait_for_fleet(svc: Service, barrier: Barrier, wake: threading.Condition) -> None:
+    """Hold the clock at 0 until the services in ``sim.start_after`` are up (bounded)."""
+    wanted = set(svc.cfg.sim.start_after)
+    deadline = time.monotonic() + svc.cfg.sim.start_wait_s
+    alive = svc.bus.alive(svc.keys.key("alive"))
+    present = {k.rsplit("/", 1)[-1] for k in alive}
+    with wake:
+        while not svc.stop_event.is_set():
+            present |= barrier.alive
+            missing = wanted - present
+            if not missing:
+                svc.log.info("fleet present; starting the clock")
+                return
+            if time.monotonic() > deadline:
+                svc.log.warning("starting without %s (waited %.0f s)", ", ".join(sorted(missing)),
+                                svc.cfg.sim.start_wait_s)
+                return
+            wake.wait(0.2)
+            present |= {k.rsplit("/", 1)[-1] for k in svc.bus.alive(svc.keys.key("alive"), 0.2)}
+
+
+def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condition) -> None:
+    cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+    status_every = max(1, round(1.0 / (cfg.sim.status_rate_hz * cfg.sim.dt)))
+    wall_start = time.monotonic()
+    timeouts = 0
+    while not svc.stop_event.is_set():
+        with wake:
+            result = sim.step()
+            s = sim.state
+            pose = Pose2D(s.x, s.y, s.theta, sim.floor)
+        stamp = result.stamp
+        if result.scan is not None:
+            bus.publish(keys.scan, PointCloud(stamp, "lidar", result.scan))
+        bus.publish(keys.odom, Odometry(stamp, pose, s.v, s.w))
+        bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
+        events_key = keys.key("events", source=NAME)
+        if result.new_collision:
+            bus.publish(events_key, Event(stamp, NAME, "collision",
+                                          f"at ({s.x:.2f}, {s.y:.2f})", "error"))
+        for text in result.events:
+            bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
+        if result.new_collision or result.tick % status_every == 0:
+            bus.publish(keys.sim_status, SimStatus(stamp, sim.collisions, sim.in_collision,
+                                                   _finite(sim.clearance),
+                                                   _finite(sim.min_clearance)))
+        for stage in range(barrier.n_stages):
+            with wake:
+                due = barrier.waiting_on(result.tick, stage) if cfg.sim.lockstep else []
+            if stage > 0 and not due:
+                continue
+            bus.publish(keys.clock, Clock(stamp, result.tick, sim.dt, stage))
+            if due and not _wait_stage(svc, barrier, wake, result.tick, stage):
+                timeouts += 1
+                if timeouts <= 10 or timeouts % 100 == 0:
+                    with wake:
+                        late = barrier.waiting_on(result.tick, stage)
+                    svc.log.warning("tick %d: no answer from %s within %.2f s (%d so far)",
+                                    result.tick, ", ".join(late), cfg.sim.lockstep_timeout_s,
+                                    timeouts)
+        if cfg.sim.realtime_factor > 0:
+            ahead = stamp / cfg.sim.realtime_factor - (time.monotonic() - wall_start)
+            if ahead > 0:
+                svc.stop_event.wait(ahead)
+
+
+def _wait_stage(svc: Service, barrier: Barrier, wake: threading.Condition, tick: int,
+                stage: int) -> bool:
+    """Wait until every live participant of ``stage`` answered ``tick``; False on timeout."""
+    with wake:
+        return wake.wait_for(
+            lambda: svc.stop_event.is_set() or not barrier.waiting_on(tick, stage),
+            timeout=svc.cfg.sim.lockstep_timeout_s,
+        )
+
+
+def _finite(value: float, cap: float = 1e6) -> float:
+    return min(value, cap)
+
+
+if __name__ == "__main__":
+    main()

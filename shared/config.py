@@ -1,0 +1,293 @@
+"""Fleet configuration: every default in one place, loaded from YAML and checked.
+
+One YAML file configures the whole fleet; each service reads its own section plus
+``robot`` and ``transport``. Unknown keys, wrong types and out-of-range values fail with
+one line naming the dotted path, e.g. ``controller.lookahead_m: must be > 0, got -0.2``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+
+class ConfigError(ValueError):
+    """A configuration value that is missing, unknown or out of range."""
+
+
+def _positive(v: float) -> str | None:
+    return None if v > 0 else "must be > 0"
+
+
+def _non_negative(v: float) -> str | None:
+    return None if v >= 0 else "must be >= 0"
+
+
+def check(rule):
+    """Field metadata attaching a validation rule (returns an error text or None)."""
+    return {"check": rule}
+
+
+@dataclass
+class Footprint:
+    """The chair's rectangle around the rear-axle point (the pose reference), metres."""
+
+    width: float = field(default=0.65, metadata=check(_positive))
+    rear: float = field(default=0.35, metadata=check(_non_negative))
+    front: float = field(default=0.76, metadata=check(_positive))
+
+
+@dataclass
+class RobotConfig:
+    """The one robot description every service uses (the seed had two footprints)."""
+
+    name: str = "chair1"
+    footprint: Footprint = field(default_factory=Footprint)
+    max_speed: float = field(default=0.6, metadata=check(_positive))
+    max_reverse_speed: float = field(default=0.25, metadata=check(_non_negative))
+    max_turn_rate: float = field(default=1.0, metadata=check(_positive))
+    max_accel: float = field(default=0.6, metadata=check(_positive))
+    max_turn_accel: float = field(default=2.0, metadata=check(_positive))
+    estop_decel: float = field(default=4.0, metadata=check(_positive))
+    lidar_height_m: float = field(default=1.5, metadata=check(_positive))
+
+
+@dataclass
+class TransportConfig:
+    """How a service reaches the fleet: a Zenoh client of the router by default."""
+
+    mode: str = field(
+        default="client",
+        metadata=check(lambda v: None if v in ("client", "peer", "router") else
+                       "must be client, peer or router"),
+    )
+    connect: list[str] = field(default_factory=lambda: ["tcp/127.0.0.1:7447"])
+    listen: list[str] = field(default_factory=list)
+
+
+@dataclass
+class StartPose:
+    """Where the chair starts in the simulator."""
+
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0
+    floor: str = ""
+
+
+@dataclass
+class SimConfig:
+    """The headless pybullet simulator."""
+
+    dt: float = field(default=0.02, metadata=check(_positive))
+    seed: int = 0
+    lockstep: bool = True
+    lockstep_timeout_s: float = field(default=0.25, metadata=check(_positive))
+    lockstep_stages: list[list[str]] = field(
+        default_factory=lambda: [["localisation", "mission"], ["controller"], ["navigator"]]
+    )
+    start_after: list[str] = field(
+        default_factory=lambda: ["localisation", "planner", "controller", "navigator"]
+    )
+    start_wait_s: float = field(default=60.0, metadata=check(_non_negative))
+    realtime_factor: float = field(default=1.0, metadata=check(_non_negative))
+    watchdog_s: float = field(default=0.3, metadata=check(_positive))
+    motor_lag_s: float = field(default=0.1, metadata=check(_non_negative))
+    lidar_rate_hz: float = field(default=10.0, metadata=check(_positive))
+    lidar_beams: int = field(default=360, metadata=check(_positive))
+    lidar_fov_deg: float = field(default=360.0, metadata=check(_positive))
+    lidar_range_m: float = field(default=12.0, metadata=check(_positive))
+    lidar_noise_m: float = field(default=0.01, metadata=check(_non_negative))
+    status_rate_hz: float = field(default=10.0, metadata=check(_positive))
+    start: StartPose = field(default_factory=StartPose)
+
+
+@dataclass
+class PlannerConfig:
+    """The route planner."""
+
+    inflation_margin_m: float = field(default=0.05, metadata=check(_non_negative))
+    cost_band_m: float = field(default=0.0, metadata=check(_non_negative))
+    cruise_speed: float = field(default=0.5, metadata=check(_positive))
+    goal_speed_radius_m: float = field(default=1.0, metadata=check(_non_negative))
+    waypoint_spacing_m: float = field(default=0.5, metadata=check(_positive))
+    unknown_is_occupied: bool = True
+
+
+@dataclass
+class ControllerConfig:
+    """The path-tracking controller."""
+
+    rate_hz: float = field(default=25.0, metadata=check(_positive))
+    lookahead_m: float = field(default=0.6, metadata=check(_positive))
+    heading_gain: float = field(default=2.0, metadata=check(_positive))
+    goal_tolerance_m: float = field(default=0.15, metadata=check(_positive))
+    pose_timeout_s: float = field(default=0.5, metadata=check(_positive))
+
+
+@dataclass
+class NavigatorConfig:
+    """The mission behaviour tree."""
+
+    rate_hz: float = field(default=10.0, metadata=check(_positive))
+    plan_timeout_s: float = field(default=10.0, metadata=check(_positive))
+    follow_timeout_s: float = field(default=600.0, metadata=check(_positive))
+    min_follow_speed: float = field(default=0.1, metadata=check(_positive))
+    status_rate_hz: float = field(default=2.0, metadata=check(_positive))
+
+
+@dataclass
+class LauncherConfig:
+    """``wheelnav up``: the in-process router and the restart policy."""
+
+    router_listen: str = "tcp/127.0.0.1:7447"
+    restart_backoff_s: float = field(default=0.5, metadata=check(_positive))
+    restart_backoff_max_s: float = field(default=10.0, metadata=check(_positive))
+    restart_reset_after_s: float = field(default=30.0, metadata=check(_positive))
+    ready_timeout_s: float = field(default=60.0, metadata=check(_positive))
+
+
+@dataclass
+class FleetConfig:
+    """The whole fleet's configuration."""
+
+    site: str = "sites/two_rooms"
+    clock: str = field(
+        default="sim",
+        metadata=check(lambda v: None if v in ("sim", "wall") else "must be sim or wall"),
+    )
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    transport: TransportConfig = field(default_factory=TransportConfig)
+    sim: SimConfig = field(default_factory=SimConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
+    launcher: LauncherConfig = field(default_factory=LauncherConfig)
+
+
+# --------------------------------------------------------------------------------------
+# Loading and validation
+# --------------------------------------------------------------------------------------
+
+
+def from_dict(cls: type, data: Any, path: str = "") -> Any:
+    """Build dataclass ``cls`` from plain data, naming the first bad key in a ConfigError."""
+    where = path or "config"
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    for key in data:
+        if key not in fields:
+            raise ConfigError(f"{_join(path, key)}: unknown key (known: {', '.join(fields)})")
+    hints = typing.get_type_hints(cls)
+    values = {}
+    for name, value in data.items():
+        dotted = _join(path, name)
+        values[name] = _convert(hints[name], value, dotted)
+        rule = fields[name].metadata.get("check")
+        problem = rule(values[name]) if rule else None
+        if problem:
+            raise ConfigError(f"{dotted}: {problem}, got {value!r}")
+    return cls(**values)
+
+
+def _join(path: str, key: Any) -> str:
+    return f"{path}.{key}" if path else str(key)
+
+
+def _convert(hint: Any, value: Any, path: str) -> Any:
+    if dataclasses.is_dataclass(hint):
+        return from_dict(hint, value, path)
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise ConfigError(f"{path}: expected a finite number, got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{path}: expected an integer, got {value!r}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{path}: expected true or false, got {value!r}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{path}: expected text, got {value!r}")
+        return value
+    if typing.get_origin(hint) is list:
+        if not isinstance(value, list):
+            raise ConfigError(f"{path}: expected a list, got {value!r}")
+        (item,) = typing.get_args(hint)
+        return [_convert(item, v, f"{path}[{i}]") for i, v in enumerate(value)]
+    raise ConfigError(f"{path}: unsupported type {hint!r}")
+
+
+def to_dict(cfg: Any) -> dict[str, Any]:
+    """Plain data of a config dataclass (for writing YAML)."""
+    return dataclasses.asdict(cfg)
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """Parse ``a.b.c=value`` (value in YAML syntax) into a key path and a value."""
+    if "=" not in text:
+        raise ConfigError(f"override {text!r}: expected KEY=VALUE, e.g. sim.seed=3")
+    key, raw = text.split("=", 1)
+    try:
+        value = yaml.safe_load(raw)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"override {text!r}: bad value ({exc.problem})") from None
+    return key.strip().split("."), value
+
+
+def merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
+    """Deep-merge ``update`` into a copy of ``base``."""
+    out = dict(base)
+    for key, value in update.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def read_yaml(path: str | Path) -> dict[str, Any]:
+    """Read a YAML mapping, with one-line errors for a missing or malformed file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such file")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark else ""
+        raise ConfigError(f"{path}{where}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping at the top level")
+    return data
+
+
+def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
+    """``data`` with each ``KEY=VALUE`` override merged in."""
+    for text in overrides:
+        keys, value = parse_override(text)
+        nested: dict[str, Any] = {keys[-1]: value}
+        for key in reversed(keys[:-1]):
+            nested = {key: nested}
+        data = merge(data, nested)
+    return data
+
+
+def load(path: str | Path | None = None, overrides: list[str] = ()) -> FleetConfig:
+    """Load the fleet config from ``path`` (defaults if None), then apply ``KEY=VALUE`` overrides."""
+    data = read_yaml(path) if path else {}
+    return from_dict(FleetConfig, apply_overrides(data, list(overrides)))

@@ -1,0 +1,328 @@
+"""Message types exchanged between wheelnav services, each defined once.
+
+Every type is a small dataclass with a wire tag (``TAG``) and a schema version
+(``VERSION``). The codec in :mod:`shared.codec` checks every field against the type
+hints below, so a message that decodes is a message the receiver can use.
+
+Conventions:
+    * ``stamp`` is time in seconds on the fleet clock (simulation time in the
+      simulator, the chair's clock on hardware).
+    * Poses are of the rear-axle point, metres and radians, in the frame of the floor's map.
+    * Arrays carry their shape in field metadata; ``None`` in a shape means "any length".
+    * Door and lift fields follow Open-RMF's ``rmf_door_msgs`` / ``rmf_lift_msgs``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+REGISTRY: dict[str, type] = {}
+
+
+def message(tag: str, version: int = 1):
+    """Register a dataclass as a wire message with ``tag`` and schema ``version``."""
+
+    def wrap(cls: type) -> type:
+        if tag in REGISTRY:
+            raise ValueError(f"message tag {tag!r} registered twice")
+        cls.TAG = tag
+        cls.VERSION = version
+        REGISTRY[tag] = cls
+        return cls
+
+    return wrap
+
+
+def array(dtype: str, shape: tuple[int | None, ...]):
+    """A dataclass field holding a numpy array of a fixed dtype and shape pattern."""
+    return field(metadata={"dtype": np.dtype(dtype), "shape": shape})
+
+
+class Msg:
+    """Base of all messages (only for typing: ``TAG`` and ``VERSION`` are set by ``message``)."""
+
+    TAG: ClassVar[str]
+    VERSION: ClassVar[int]
+
+
+# --------------------------------------------------------------------------------------
+# Geometry and motion
+# --------------------------------------------------------------------------------------
+
+
+@message("pose2d")
+@dataclass
+class Pose2D(Msg):
+    """A planar pose on a named floor."""
+
+    x: float
+    y: float
+    theta: float
+    floor: str = ""
+
+
+@message("twist")
+@dataclass
+class Twist(Msg):
+    """A velocity command for the chair: forward speed ``v`` (m/s), turn rate ``w`` (rad/s)."""
+
+    stamp: float
+    v: float
+    w: float
+
+
+@message("odometry")
+@dataclass
+class Odometry(Msg):
+    """Wheel odometry: the pose integrated from the wheels (drifts) and the measured speeds."""
+
+    stamp: float
+    pose: Pose2D
+    v: float
+    w: float
+    frame: str = "odom"
+
+
+@message("pose_estimate")
+@dataclass
+class PoseEstimate(Msg):
+    """The localisation's pose on the current floor's map, with covariance (x, y, theta)."""
+
+    stamp: float
+    pose: Pose2D
+    covariance: np.ndarray = array("float64", (3, 3))
+    lost: bool = False
+
+
+@message("point_cloud")
+@dataclass
+class PointCloud(Msg):
+    """Points in the sensor frame (x forward, y left, z up), metres, float32."""
+
+    stamp: float
+    frame: str
+    points: np.ndarray = array("float32", (None, 3))
+
+
+@message("path")
+@dataclass
+class Path(Msg):
+    """Waypoints (x, y) on one floor and the reference speed at each (m/s, 0 at the goal)."""
+
+    stamp: float
+    path_id: str
+    floor: str
+    waypoints: np.ndarray = array("float64", (None, 2))
+    v_ref: np.ndarray = array("float64", (None,))
+
+
+# --------------------------------------------------------------------------------------
+# Time
+# --------------------------------------------------------------------------------------
+
+
+@message("clock")
+@dataclass
+class Clock(Msg):
+    """Fleet time: published by the simulator after every step (tick ``tick`` of length ``dt``).
+
+    In lockstep one tick is announced once per ``stage`` (see shared/lockstep.py); stage 0 is
+    always sent, so listeners that only want the time take stage 0.
+    """
+
+    stamp: float
+    tick: int
+    dt: float
+    stage: int = 0
+
+
+@message("ack")
+@dataclass
+class Ack(Msg):
+    """A lockstep participant has answered ``tick`` and will answer next at ``next_tick``."""
+
+    participant: str
+    tick: int
+    next_tick: int
+
+
+# --------------------------------------------------------------------------------------
+# Building: doors and lifts (Open-RMF's fields)
+# --------------------------------------------------------------------------------------
+
+
+class DoorMode:
+    """``rmf_door_msgs/DoorMode`` values."""
+
+    CLOSED = 0
+    MOVING = 1
+    OPEN = 2
+    OFFLINE = 3
+    UNKNOWN = 4
+
+
+@message("door_state")
+@dataclass
+class DoorState(Msg):
+    """The current mode of one door (a ``DoorMode`` value)."""
+
+    stamp: float
+    door_name: str
+    current_mode: int
+
+
+@message("door_request")
+@dataclass
+class DoorRequest(Msg):
+    """Ask a door to open or close on behalf of ``requester_id`` (a ``DoorMode`` value)."""
+
+    stamp: float
+    requester_id: str
+    door_name: str
+    requested_mode: int
+
+
+class LiftRequestType:
+    """``rmf_lift_msgs/LiftRequest`` request types."""
+
+    END_SESSION = 0
+    AGV_MODE = 1
+    HUMAN_MODE = 2
+
+
+class LiftDoor:
+    """``rmf_lift_msgs`` door states."""
+
+    CLOSED = 0
+    MOVING = 1
+    OPEN = 2
+
+
+class LiftMotion:
+    """``rmf_lift_msgs/LiftState`` motion states."""
+
+    STOPPED = 0
+    UP = 1
+    DOWN = 2
+    UNKNOWN = 3
+
+
+@message("lift_state")
+@dataclass
+class LiftState(Msg):
+    """The state of one lift: where the car is, where it goes, its door, who holds it."""
+
+    stamp: float
+    lift_name: str
+    available_floors: list[str]
+    current_floor: str
+    destination_floor: str
+    door_state: int
+    motion_state: int
+    current_mode: int
+    session_id: str
+
+
+@message("lift_request")
+@dataclass
+class LiftRequest(Msg):
+    """Open or end a lift session, and send the car to ``destination_floor``."""
+
+    stamp: float
+    lift_name: str
+    session_id: str
+    request_type: int
+    destination_floor: str
+    door_state: int
+
+
+# --------------------------------------------------------------------------------------
+# Planning, control and mission
+# --------------------------------------------------------------------------------------
+
+
+@message("route_request")
+@dataclass
+class RouteRequest(Msg):
+    """Ask the planner for a route from ``start`` to ``goal`` or to the named ``place``."""
+
+    start: Pose2D
+    goal: Pose2D | None = None
+    place: str = ""
+
+
+@message("route_reply")
+@dataclass
+class RouteReply(Msg):
+    """The planner's answer: a path, or an error code and a one-line reason."""
+
+    ok: bool
+    path: Path | None = None
+    error_code: str = ""
+    error: str = ""
+
+
+@message("follow_status")
+@dataclass
+class FollowStatus(Msg):
+    """The controller's progress along the current path (``state``: idle/following/arrived)."""
+
+    stamp: float
+    path_id: str
+    state: str
+    progress: float
+    distance_to_goal: float
+    cross_track: float
+
+
+@message("nav_goal")
+@dataclass
+class NavGoal(Msg):
+    """Start a mission to a pose or a named place; ``cancel`` stops the running one."""
+
+    stamp: float
+    goal_id: str
+    goal: Pose2D | None = None
+    place: str = ""
+    cancel: bool = False
+
+
+@message("nav_status")
+@dataclass
+class NavStatus(Msg):
+    """The navigator's mission state: idle/running/succeeded/failed/cancelled and why."""
+
+    stamp: float
+    goal_id: str
+    state: str
+    action: str = ""
+    phase: str = ""
+    reason: str = ""
+    progress: float = 0.0
+
+
+@message("event")
+@dataclass
+class Event(Msg):
+    """Something worth a line in the log and the report (collision, fallback, restart...)."""
+
+    stamp: float
+    source: str
+    kind: str
+    detail: str = ""
+    severity: str = "info"
+
+
+@message("sim_status")
+@dataclass
+class SimStatus(Msg):
+    """Simulator bookkeeping for evaluation: collisions so far and the smallest clearance seen."""
+
+    stamp: float
+    collisions: int
+    in_collision: bool
+    clearance_m: float
+    min_clearance_m: float

@@ -1,0 +1,173 @@
+"""The small base every wheelnav service process stands on.
+
+It parses the shared flags (config file, overrides, robot, transport), loads and checks
+the fleet config, sets up logging, opens the Zenoh session, holds the service's
+liveliness token and turns SIGTERM/SIGINT into a clean stop. A node module does::
+
+    with Service("planner", description=__doc__) as svc:
+        ...declare endpoints on svc.bus with keys from svc.keys...
+        svc.wait()
+
+Bad configuration ends the process with one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+
+from shared import config as config_mod
+from shared.config import ConfigError, FleetConfig
+from shared.lockstep import Participant
+from shared.messages import Ack, Clock
+from shared.topics import Keys
+from shared.transport import Bus, open_session
+
+EXIT_CONFIG = 2
+
+
+def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags every program shares (zenoh's examples keep these in one helper too)."""
+    parser.add_argument("--config", metavar="FILE", help="fleet config YAML (defaults if absent)")
+    parser.add_argument(
+        "--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+        help="override one config value, e.g. --set sim.seed=3 (repeatable)",
+    )
+    parser.add_argument("--robot", help="robot name (namespace of its keys)")
+    parser.add_argument("--connect", metavar="ENDPOINT", action="append",
+                        help="router endpoint, e.g. tcp/192.168.1.20:7447 (repeatable)")
+    parser.add_argument("--listen", metavar="ENDPOINT", action="append",
+                        help="endpoint to listen on (repeatable)")
+    parser.add_argument("--mode", choices=["client", "peer", "router"], help="Zenoh session mode")
+    parser.add_argument("--log-level", default="INFO",
+                        choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+
+
+def config_from_args(args: argparse.Namespace) -> FleetConfig:
+    """Load the fleet config and apply the command-line flags on top."""
+    overrides = list(args.overrides)
+    if args.robot:
+        overrides.append(f"robot.name={args.robot}")
+    if args.mode:
+        overrides.append(f"transport.mode={args.mode}")
+    cfg = config_mod.load(args.config, overrides)
+    if args.connect:
+        cfg.transport.connect = list(args.connect)
+    if args.listen:
+        cfg.transport.listen = list(args.listen)
+    return cfg
+
+
+def setup_logging(name: str, level: str = "INFO") -> logging.Logger:
+    """One-line log records; the launcher adds the service prefix when it gathers outputs."""
+    logging.basicConfig(level=level, format="%(levelname).1s %(name)s: %(message)s",
+                        stream=sys.stderr, force=True)
+    return logging.getLogger(f"wheelnav.{name}")
+
+
+class Service:
+    """Config, session, liveliness and shutdown for one service process."""
+
+    def __init__(
+        self,
+        name: str,
+        description: str = "",
+        argv: Sequence[str] | None = None,
+        extra_arguments: Callable[[argparse.ArgumentParser], None] | None = None,
+    ) -> None:
+        parser = argparse.ArgumentParser(prog=f"wheelnav-{name}", description=description)
+        add_transport_arguments(parser)
+        if extra_arguments:
+            extra_arguments(parser)
+        self.args = parser.parse_args(argv)
+        self.name = name
+        self.log = setup_logging(name, self.args.log_level)
+        try:
+            self.cfg = config_from_args(self.args)
+        except ConfigError as exc:
+            print(f"wheelnav-{name}: config error: {exc}", file=sys.stderr)
+            raise SystemExit(EXIT_CONFIG) from None
+        self.keys = Keys(self.cfg.robot.name)
+        self.stop_event = threading.Event()
+        self.bus: Bus | None = None
+
+    def __enter__(self) -> Service:
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(sig, lambda *_: self.stop_event.set())
+        try:
+            session = open_session(self.cfg.transport)
+        except RuntimeError as exc:
+            self.log.error("%s", exc)
+            raise SystemExit(1) from None
+        self.bus = Bus(session, self.name)
+        alive_key = self.keys.key("alive", service=self.name)
+        self.bus.declare_alive(alive_key)
+        self.log.info("up as %s (robot %s)", alive_key, self.cfg.robot.name)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bus is not None:
+            self.bus.close()
+        self.log.info("stopped")
+
+    def declare(self, what: str, key: str) -> str:
+        """Log a key this service declares (zenoh's examples print theirs) and return it."""
+        self.log.info("%s %s", what, key)
+        return key
+
+    def wait(self) -> None:
+        """Block until SIGTERM/SIGINT."""
+        while not self.stop_event.wait(0.2):
+            pass
+
+    def every(self, rate_hz: float, step: Callable[[Clock], None]) -> Participant | None:
+        """Run ``step(clock)`` at ``rate_hz`` on the fleet clock (``clock`` in the config).
+
+        On ``sim`` time the service answers the simulator's lockstep; on ``wall`` time (a real
+        chair) a thread calls ``step`` under the bus lock.
+        """
+        if self.cfg.clock == "sim":
+            return self._participant(rate_hz, step)
+        assert self.bus is not None
+        lock, counter = self.bus.lock, iter(range(1 << 62))
+
+        def wall_step(now: float) -> None:
+            with lock:
+                step(Clock(stamp=now, tick=next(counter), dt=1.0 / rate_hz))
+
+        threading.Thread(
+            target=wall_loop, args=(rate_hz, wall_step, self.stop_event), daemon=True
+        ).start()
+        return None
+
+    def _participant(self, rate_hz: float, step: Callable[[Clock], None]) -> Participant:
+        assert self.bus is not None
+        stages = self.cfg.sim.lockstep_stages
+        stage = next((i for i, names in enumerate(stages) if self.name in names), None)
+        if stage is None:
+            stage = len(stages)
+            self.log.warning("%s is in no sim.lockstep_stages list; not in lockstep", self.name)
+        ack_key = self.declare("publishes", self.keys.ack)
+        part = Participant(self.name, stage, rate_hz, step,
+                           lambda ack: self._publish_ack(ack_key, ack))
+        self.bus.subscribe(self.declare("subscribes", self.keys.clock), Clock, part.on_clock)
+        return part
+
+    def _publish_ack(self, key: str, ack: Ack) -> None:
+        assert self.bus is not None
+        self.bus.publish(key, ack)
+
+
+def wall_loop(rate_hz: float, step: Callable[[float], None], stop: threading.Event) -> None:
+    """Call ``step(now)`` at ``rate_hz`` of wall time until ``stop`` (hardware without a sim)."""
+    period = 1.0 / rate_hz
+    next_t = time.monotonic()
+    while not stop.is_set():
+        step(time.time())
+        next_t += period
+        stop.wait(max(0.0, next_t - time.monotonic()))

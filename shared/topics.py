@@ -1,0 +1,112 @@
+"""Every Zenoh key expression wheelnav uses, defined once.
+
+Robot keys live under ``wheelnav/<robot>/...``; building keys (doors and lifts, shared by
+every robot in the building) under ``wheelnav/building/...``. No other module holds a key
+literal: services ask :class:`Keys` for one by its name in :data:`TOPICS`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from shared import messages as m
+
+ROOT = "wheelnav"
+BUILDING = f"{ROOT}/building"
+_NAME = re.compile(r"^[A-Za-z0-9_\-]+$")
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One row of the topic table: key pattern, message type, who publishes and who listens."""
+
+    name: str
+    pattern: str
+    msg: type | None
+    kind: str
+    publisher: str
+    subscribers: str
+    doc: str
+
+
+TOPICS: tuple[Topic, ...] = (
+    Topic("clock", "{ns}/clock", m.Clock, "pub", "sim", "all", "fleet time, one per sim tick"),
+    Topic("ack", "{ns}/clock/ack", m.Ack, "pub", "controller, navigator", "sim",
+          "lockstep: tick answered"),
+    Topic("cmd_vel", "{ns}/cmd_vel", m.Twist, "pub", "controller", "sim / chair driver",
+          "velocity command"),
+    Topic("odom", "{ns}/odom", m.Odometry, "pub", "sim / chair driver", "localisation",
+          "wheel odometry, 50 Hz"),
+    Topic("scan", "{ns}/scan", m.PointCloud, "pub", "sim / chair driver",
+          "localisation, navigator", "LiDAR points in the sensor frame"),
+    Topic("pose", "{ns}/pose", m.PoseEstimate, "pub", "localisation", "controller, navigator",
+          "pose on the floor map"),
+    Topic("ground_truth", "{ns}/sim/ground_truth", m.Odometry, "pub", "sim",
+          "evaluation only (mission report)", "true pose; no navigation service may listen"),
+    Topic("sim_status", "{ns}/sim/status", m.SimStatus, "pub", "sim",
+          "evaluation only (mission report)", "collisions and clearance"),
+    Topic("path", "{ns}/path", m.Path, "pub", "navigator", "controller", "path to follow"),
+    Topic("follow_status", "{ns}/controller/status", m.FollowStatus, "pub", "controller",
+          "navigator", "progress along the path"),
+    Topic("route", "{ns}/planner/route", m.RouteRequest, "query", "navigator (get)",
+          "planner (queryable)", "route request; reply is a RouteReply"),
+    Topic("nav_goal", "{ns}/nav/goal", m.NavGoal, "pub", "user / mission runner", "navigator",
+          "start or cancel a mission"),
+    Topic("nav_status", "{ns}/nav/status", m.NavStatus, "pub", "navigator", "user",
+          "mission state, on change and at 2 Hz"),
+    Topic("events", "{ns}/events/{source}", m.Event, "pub", "any service", "user",
+          "notable events"),
+    Topic("alive", "{ns}/alive/{service}", None, "liveliness", "every service", "sim, tools",
+          "liveliness token per service"),
+    Topic("door_state", BUILDING + "/door/{door}/state", m.DoorState, "pub", "building", "any",
+          "door mode"),
+    Topic("door_request", BUILDING + "/door/{door}/request", m.DoorRequest, "pub",
+          "navigator", "building", "door open/close request"),
+    Topic("lift_state", BUILDING + "/lift/{lift}/state", m.LiftState, "pub", "building", "any",
+          "lift state"),
+    Topic("lift_request", BUILDING + "/lift/{lift}/request", m.LiftRequest, "pub",
+          "navigator", "building", "lift session request"),
+)
+_BY_NAME = {t.name: t for t in TOPICS}
+
+
+def check_name(kind: str, value: str) -> str:
+    """A robot, service or door name must be one key chunk; raises ValueError naming it."""
+    if not _NAME.match(value):
+        raise ValueError(f"{kind} name {value!r}: use letters, digits, '_' or '-'")
+    return value
+
+
+class Keys:
+    """Key expressions for one robot: ``Keys("chair1").odom == "wheelnav/chair1/odom"``."""
+
+    def __init__(self, robot: str) -> None:
+        self.robot = check_name("robot", robot)
+        self.ns = f"{ROOT}/{robot}"
+
+    def key(self, name: str, **parts: str) -> str:
+        """The key of topic ``name``; fill ``{source}``, ``{service}``, ``{door}`` or ``{lift}``.
+
+        A part left out becomes ``*`` so the result can be subscribed to as a pattern.
+        """
+        topic = _BY_NAME.get(name)
+        if topic is None:
+            raise KeyError(f"unknown topic {name!r}; known: {', '.join(_BY_NAME)}")
+        fields = {"ns": self.ns, "source": "*", "service": "*", "door": "*", "lift": "*"}
+        fields.update({k: check_name(k, v) for k, v in parts.items()})
+        return topic.pattern.format(**fields)
+
+    def __getattr__(self, name: str) -> str:
+        if name in _BY_NAME and "{" not in _BY_NAME[name].pattern.replace("{ns}", ""):
+            return self.key(name)
+        raise AttributeError(name)
+
+    def all(self) -> str:
+        """A pattern matching every key of this robot."""
+        return f"{self.ns}/**"
+
+
+def topic(name: str) -> Topic:
+    """The table row of topic ``name``."""
+    return _BY_NAME[name]

@@ -1,0 +1,69 @@
+"""The wheelchair's motion: a unicycle at the rear-axle point with limits, lag and a watchdog.
+
+Pure and deterministic: :meth:`Chair.step` advances the state by ``dt`` from the last
+command. The command watchdog brings the chair to a stop (at the emergency deceleration)
+when no command has arrived for ``watchdog_s`` of simulation time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from shared.config import RobotConfig
+
+
+@dataclass
+class ChairState:
+    x: float
+    y: float
+    theta: float
+    v: float = 0.0
+    w: float = 0.0
+
+
+def _approach(current: float, target: float, max_step: float) -> float:
+    return current + max(-max_step, min(max_step, target - current))
+
+
+class Chair:
+    """Unicycle dynamics with speed and acceleration limits and a first-order motor lag."""
+
+    def __init__(self, robot: RobotConfig, state: ChairState, motor_lag_s: float,
+                 watchdog_s: float) -> None:
+        self.robot = robot
+        self.state = state
+        self.motor_lag_s = motor_lag_s
+        self.watchdog_s = watchdog_s
+        self.cmd = (0.0, 0.0)
+        self.last_cmd_time: float | None = None
+        self.watchdog_tripped = False
+
+    def command(self, v: float, w: float, now: float) -> None:
+        """Set the commanded speeds (clamped to the robot's limits)."""
+        r = self.robot
+        self.cmd = (max(-r.max_reverse_speed, min(r.max_speed, v)),
+                    max(-r.max_turn_rate, min(r.max_turn_rate, w)))
+        self.last_cmd_time = now
+        self.watchdog_tripped = False
+
+    def step(self, dt: float, now: float) -> ChairState:
+        """Advance by ``dt``; ``now`` is the simulation time at the start of the step."""
+        r, s = self.robot, self.state
+        stale = self.last_cmd_time is None or now - self.last_cmd_time > self.watchdog_s
+        if stale:
+            self.watchdog_tripped = self.last_cmd_time is not None
+            self.cmd = (0.0, 0.0)
+            s.v = _approach(s.v, 0.0, r.estop_decel * dt)
+            s.w = _approach(s.w, 0.0, r.estop_decel * 2.0 * dt)
+        else:
+            alpha = dt / (self.motor_lag_s + dt)
+            v_target = s.v + alpha * (self.cmd[0] - s.v)
+            w_target = s.w + alpha * (self.cmd[1] - s.w)
+            s.v = _approach(s.v, v_target, r.max_accel * dt)
+            s.w = _approach(s.w, w_target, r.max_turn_accel * dt)
+        mid = s.theta + 0.5 * s.w * dt
+        s.x += s.v * dt * math.cos(mid)
+        s.y += s.v * dt * math.sin(mid)
+        s.theta = math.atan2(math.sin(s.theta + s.w * dt), math.cos(s.theta + s.w * dt))
+        return s

@@ -1,0 +1,124 @@
+"""The simulator's core: one floor, one chair, its sensors and its collision bookkeeping.
+
+No I/O and no clock reads: the node calls :meth:`Simulation.step` and publishes what it
+returns. Deterministic for a given config and seed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pybullet as pb
+
+from shared.config import FleetConfig
+from shared.site import Site
+from sim.robot import Chair, ChairState
+from sim.sensors import PlanarLidar
+from sim.world import World
+
+CLEARANCE_RANGE_M = 2.0
+CHAIR_HEIGHT_M = 1.2
+
+
+@dataclass
+class StepResult:
+    """What one step produced: the time, whether a scan is due, and new collisions."""
+
+    stamp: float
+    tick: int
+    scan: np.ndarray | None = None
+    new_collision: bool = False
+    events: list[str] = field(default_factory=list)
+
+
+class Simulation:
+    """Steps the chair on a site floor and measures collisions and clearance."""
+
+    def __init__(self, cfg: FleetConfig, site: Site) -> None:
+        sim, robot = cfg.sim, cfg.robot
+        self.cfg = cfg
+        self.floor = site.floor(sim.start.floor).name
+        self.world = World(site.floor(self.floor).map, cfg.planner.unknown_is_occupied)
+        self.rng = np.random.default_rng(sim.seed)
+        start = ChairState(sim.start.x, sim.start.y, sim.start.theta)
+        self.chair = Chair(robot, start, sim.motor_lag_s, sim.watchdog_s)
+        self.lidar = PlanarLidar(self.world.client, sim.lidar_beams, sim.lidar_fov_deg,
+                                 sim.lidar_range_m, robot.lidar_height_m, sim.lidar_noise_m,
+                                 self.rng)
+        self.dt = sim.dt
+        self.tick = 0
+        self.time = 0.0
+        self.scan_every = max(1, round(1.0 / (sim.lidar_rate_hz * sim.dt)))
+        fp = robot.footprint
+        half = [(fp.front + fp.rear) / 2, fp.width / 2, CHAIR_HEIGHT_M / 2]
+        self._body_offset = (fp.front - fp.rear) / 2
+        shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half,
+                                        physicsClientId=self.world.client)
+        self.body = pb.createMultiBody(0, shape, physicsClientId=self.world.client)
+        self.collisions = 0
+        self.in_collision = False
+        self.clearance = math.inf
+        self.min_clearance = math.inf
+        self._place_body()
+        self._measure()
+        if self.in_collision:
+            raise ValueError(f"start pose ({start.x:.2f}, {start.y:.2f}) puts the chair inside a wall")
+
+    @property
+    def state(self) -> ChairState:
+        return self.chair.state
+
+    def command(self, v: float, w: float) -> None:
+        """A velocity command received now."""
+        self.chair.command(v, w, self.time)
+
+    def step(self) -> StepResult:
+        """Advance one tick: move, measure clearance, and scan when due."""
+        tripped_before = self.chair.watchdog_tripped
+        self.chair.step(self.dt, self.time)
+        self.tick += 1
+        self.time = self.tick * self.dt
+        self._place_body()
+        was_colliding = self.in_collision
+        self._measure()
+        result = StepResult(self.time, self.tick)
+        if self.in_collision and not was_colliding:
+            self.collisions += 1
+            result.new_collision = True
+        if self.chair.watchdog_tripped and not tripped_before:
+            result.events.append("watchdog: no command, stopping")
+        if self.tick % self.scan_every == 0:
+            s = self.state
+            result.scan = self.lidar.scan(s.x, s.y, s.theta)
+        return result
+
+    def _place_body(self) -> None:
+        s = self.state
+        cx = s.x + self._body_offset * math.cos(s.theta)
+        cy = s.y + self._body_offset * math.sin(s.theta)
+        orn = pb.getQuaternionFromEuler([0, 0, s.theta])
+        pb.resetBasePositionAndOrientation(self.body, [cx, cy, CHAIR_HEIGHT_M / 2 + 0.02], orn,
+                                           physicsClientId=self.world.client)
+
+    def _measure(self) -> None:
+        """Footprint clearance to the nearest wall (negative = penetration) and collision flag."""
+        client = self.world.client
+        lo, hi = pb.getAABB(self.body, physicsClientId=client)
+        lo = [lo[0] - CLEARANCE_RANGE_M, lo[1] - CLEARANCE_RANGE_M, lo[2]]
+        hi = [hi[0] + CLEARANCE_RANGE_M, hi[1] + CLEARANCE_RANGE_M, hi[2]]
+        near = pb.getOverlappingObjects(lo, hi, physicsClientId=client) or []
+        best = math.inf
+        for body, _link in near:
+            if body == self.body:
+                continue
+            pts = pb.getClosestPoints(self.body, body, CLEARANCE_RANGE_M, physicsClientId=client)
+            for p in pts:
+                best = min(best, p[8])
+        self.clearance = best
+        self.min_clearance = min(self.min_clearance, best)
+        self.in_collision = best <= 0.0
+
+    def close(self) -> None:
+        self.world.close()
