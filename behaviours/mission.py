@@ -136,6 +136,9 @@ class StopChair(_FleetBehaviour):
 
     phase = "stop"
 
+    def __init__(self, name: str = "StopChair") -> None:
+        super().__init__(name)
+
     def update(self) -> Status:
         self.bb.phase = self.phase
         self.fleet.stop()

@@ -31,9 +31,10 @@ class Topic:
 
 
 TOPICS: tuple[Topic, ...] = (
-    Topic("clock", "{ns}/clock", m.Clock, "pub", "sim", "all", "fleet time, one per sim tick"),
-    Topic("ack", "{ns}/clock/ack", m.Ack, "pub", "controller, navigator", "sim",
-          "lockstep: tick answered"),
+    Topic("clock", "{ns}/clock", m.Clock, "pub", "sim", "lockstep participants, tools",
+          "fleet time: each tick once per lockstep stage"),
+    Topic("ack", "{ns}/clock/ack", m.Ack, "pub",
+          "localisation, controller, navigator, mission", "sim", "lockstep: tick answered"),
     Topic("cmd_vel", "{ns}/cmd_vel", m.Twist, "pub", "controller", "sim / chair driver",
           "velocity command"),
     Topic("odom", "{ns}/odom", m.Odometry, "pub", "sim / chair driver", "localisation",
@@ -110,3 +111,15 @@ class Keys:
 def topic(name: str) -> Topic:
     """The table row of topic ``name``."""
     return _BY_NAME[name]
+
+
+def markdown_table() -> str:
+    """The topic table of docs/ARCHITECTURE.md (a test keeps the two equal)."""
+    rows = ["| name | key | message | kind | publisher | subscribers | what |",
+            "|---|---|---|---|---|---|---|"]
+    for t in TOPICS:
+        key = t.pattern.replace("{ns}", "wheelnav/<robot>").replace("{", "<").replace("}", ">")
+        msg = t.msg.__name__ if t.msg else "(token)"
+        rows.append(f"| {t.name} | `{key}` | {msg} | {t.kind} | {t.publisher} | "
+                    f"{t.subscribers} | {t.doc} |")
+    return "\n".join(rows)

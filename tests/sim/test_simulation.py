@@ -1,0 +1,91 @@
+"""The headless pybullet simulator: motion, watchdog, collisions, LiDAR."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from shared.config import load
+from shared.site import load_site
+from sim.simulation import Simulation
+from sim.world import merge_boxes
+from tests.conftest import ROOT
+
+SITE = load_site(ROOT / "sites" / "two_rooms")
+
+
+def make(x: float = 2.0, y: float = 2.7, theta: float = 0.0, **over) -> Simulation:
+    extra = [f"{k}={v}" for k, v in over.items()]
+    return Simulation(load(None, [f"sim.start.x={x}", f"sim.start.y={y}",
+                                  f"sim.start.theta={theta}", *extra]), SITE)
+
+
+def test_merge_boxes_covers_exactly() -> None:
+    rng = np.random.default_rng(3)
+    occ = rng.random((40, 60)) < 0.3
+    occ[10:20, :] = True
+    cover = np.zeros_like(occ)
+    boxes = merge_boxes(occ)
+    for r0, c0, r1, c1 in boxes:
+        assert not cover[r0:r1, c0:c1].any()  # no overlaps
+        cover[r0:r1, c0:c1] = True
+    assert np.array_equal(cover, occ)
+    assert len(boxes) < occ.sum() / 2
+
+
+def range_ahead(sim: Simulation) -> float:
+    for _ in range(sim.scan_every):
+        r = sim.step()
+    pts = r.scan
+    assert pts.dtype == np.float32 and pts.shape[1] == 3
+    ahead = pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.01]
+    return float(ahead[:, 0].mean())
+
+
+def test_lidar_sees_a_wall_at_the_known_distance() -> None:
+    # the dividing wall's face is at x = 6.1; the sensor is at x = 3.0 (noise sigma 1 cm)
+    assert range_ahead(make(x=3.0, y=1.0, **{"sim.lidar_noise_m": 0.01})) == pytest.approx(3.1, abs=0.03)
+    # through the open doorway it sees the far wall at x = 12.2
+    assert range_ahead(make(x=3.0, y=2.7)) == pytest.approx(9.2, abs=0.03)
+
+
+def test_driving_into_a_wall_is_a_collision() -> None:
+    sim = make(x=4.5, y=1.0, theta=0.0)
+    collisions = 0
+    for _ in range(300):
+        sim.command(0.5, 0.0)
+        collisions += sim.step().new_collision
+    assert collisions == 1 and sim.collisions == 1
+    assert sim.min_clearance < 0
+
+
+def test_watchdog_stops_the_chair_within_half_a_second() -> None:
+    sim = make()
+    for _ in range(100):
+        sim.command(0.5, 0.0)
+        sim.step()
+    last_cmd = sim.time
+    assert sim.state.v == pytest.approx(0.5, abs=0.01)
+    while sim.state.v > 0:
+        sim.step()
+        assert sim.time - last_cmd < 1.0
+    assert sim.time - last_cmd <= 0.5
+    assert sim.time - last_cmd >= 0.3
+
+
+def test_start_inside_a_wall_is_refused() -> None:
+    with pytest.raises(ValueError, match="inside a wall"):
+        make(x=6.2, y=1.0)
+
+
+def test_same_seed_same_run() -> None:
+    def run() -> tuple:
+        sim = make(**{"sim.seed": 4})
+        for i in range(60):
+            sim.command(0.4, 0.3 * math.sin(i / 10))
+            r = sim.step()
+        return sim.state.x, sim.state.y, r.scan.tobytes() if r.scan is not None else None
+
+    assert run() == run()
