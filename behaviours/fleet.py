@@ -18,8 +18,9 @@ class Fleet(Protocol):
     def now(self) -> float:
         """Fleet time in seconds (simulation time in the simulator)."""
 
-    def request_route(self, goal: Pose2D | None, place: str,
-                      on_done: Callable[[RouteReply | None, str], None]) -> None:
+    def request_route(
+        self, goal: Pose2D | None, place: str, on_done: Callable[[RouteReply | None, str], None]
+    ) -> None:
         """Ask the planner for a route from the current pose; ``on_done(reply, error)`` once."""
 
     def send_path(self, path: Path) -> None:

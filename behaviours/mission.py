@@ -122,8 +122,9 @@ class FollowPath(_FleetBehaviour):
         status = self.fleet.follow_status()
         if status is None or status.path_id != self.path_id:
             return Status.RUNNING
-        self.feedback_message = (f"{status.state}: {100 * status.progress:.0f} %, "
-                                 f"{status.distance_to_goal:.2f} m to go")
+        self.feedback_message = (
+            f"{status.state}: {100 * status.progress:.0f} %, {status.distance_to_goal:.2f} m to go"
+        )
         return Status.SUCCESS if status.state == "arrived" else Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
@@ -153,8 +154,9 @@ class MissionFailed(py_trees.behaviour.Behaviour):
         return Status.FAILURE
 
 
-def create_mission_tree(clock: Callable[[], float], plan_timeout_s: float,
-                        follow_timeout_s: float) -> py_trees.behaviour.Behaviour:
+def create_mission_tree(
+    clock: Callable[[], float], plan_timeout_s: float, follow_timeout_s: float
+) -> py_trees.behaviour.Behaviour:
     """Build the mission tree (the goal is set on the blackboard by the navigator)."""
     bb = py_trees.blackboard.Client(name="MissionTimeouts", namespace=NS)
     bb.register_key("failure", access=Access.WRITE)

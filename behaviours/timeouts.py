@@ -19,9 +19,14 @@ class Timeout(py_trees.decorators.Decorator):
     out after N s" and ``on_timeout(reason)`` is called, so the reason can reach a report.
     """
 
-    def __init__(self, name: str, child: py_trees.behaviour.Behaviour, duration: float,
-                 clock: Callable[[], float],
-                 on_timeout: Callable[[str], None] | None = None) -> None:
+    def __init__(
+        self,
+        name: str,
+        child: py_trees.behaviour.Behaviour,
+        duration: float,
+        clock: Callable[[], float],
+        on_timeout: Callable[[str], None] | None = None,
+    ) -> None:
         if duration <= 0:
             raise ValueError(f"{name}: duration must be > 0, got {duration}")
         super().__init__(name=name, child=child)

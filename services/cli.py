@@ -1,9 +1,9 @@
 """The ``wheelnav`` command: run the fleet, run missions, and look at topics.
 
-    wheelnav up [--profile sim|hardware]     the whole fleet around a local router
-    wheelnav mission SCENARIO.yaml           one mission, with a report
-    wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
-    wheelnav compose [--check]               docker-compose.yml from the fleet definition
+wheelnav up [--profile sim|hardware]     the whole fleet around a local router
+wheelnav mission SCENARIO.yaml           one mission, with a report
+wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
+wheelnav compose [--check]               docker-compose.yml from the fleet definition
 """
 
 from __future__ import annotations
@@ -15,9 +15,12 @@ from shared.config import ConfigError
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="wheelnav", description=__doc__.splitlines()[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     epilog="\n".join(__doc__.splitlines()[2:]))
+    parser = argparse.ArgumentParser(
+        prog="wheelnav",
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="\n".join(__doc__.splitlines()[2:]),
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     from services.launcher import cli as launcher_cli
     from services.mission import cli as mission_cli

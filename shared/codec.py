@@ -96,7 +96,9 @@ def _unpack_ext(code: int, data: bytes) -> Any:
     count = math.prod(shape) if shape else 1
     body = data[offset:]
     if len(body) != count * dtype.itemsize:
-        raise DecodeError(f"array of shape {shape} {dtype} needs {count * dtype.itemsize} bytes, got {len(body)}")
+        raise DecodeError(
+            f"array of shape {shape} {dtype} needs {count * dtype.itemsize} bytes, got {len(body)}"
+        )
     return np.frombuffer(body, dtype=dtype).reshape(shape).copy()
 
 
@@ -129,7 +131,9 @@ def decode(payload: bytes, expected: type[T] | None = None) -> T:
     if expected is not None and cls is not expected:
         raise DecodeError(f"expected {expected.TAG}, got {tag}")
     if not isinstance(version, int) or version > cls.VERSION:
-        raise DecodeError(f"{tag} schema version {version!r} is newer than this build's {cls.VERSION}")
+        raise DecodeError(
+            f"{tag} schema version {version!r} is newer than this build's {cls.VERSION}"
+        )
     return _build(cls, obj["d"], tag)
 
 

@@ -64,8 +64,11 @@ class TransportConfig:
 
     mode: str = field(
         default="client",
-        metadata=check(lambda v: None if v in ("client", "peer", "router") else
-                       "must be client, peer or router"),
+        metadata=check(
+            lambda v: (
+                None if v in ("client", "peer", "router") else "must be client, peer or router"
+            )
+        ),
     )
     connect: list[str] = field(default_factory=lambda: ["tcp/127.0.0.1:7447"])
     listen: list[str] = field(default_factory=list)
@@ -207,7 +210,11 @@ def _convert(hint: Any, value: Any, path: str) -> Any:
     if dataclasses.is_dataclass(hint):
         return from_dict(hint, value, path)
     if hint is float:
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
             raise ConfigError(f"{path}: expected a finite number, got {value!r}")
         return float(value)
     if hint is int:
@@ -268,7 +275,9 @@ def read_yaml(path: str | Path) -> dict[str, Any]:
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}" if mark else ""
-        raise ConfigError(f"{path}{where}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+        raise ConfigError(
+            f"{path}{where}: not valid YAML ({getattr(exc, 'problem', exc)})"
+        ) from None
     if data is None:
         return {}
     if not isinstance(data, dict):
@@ -288,6 +297,6 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
 
 
 def load(path: str | Path | None = None, overrides: list[str] = ()) -> FleetConfig:
-    """Load the fleet config from ``path`` (defaults if None), then apply ``KEY=VALUE`` overrides."""
+    """Load the fleet config from ``path`` (defaults if None), then apply overrides."""
     data = read_yaml(path) if path else {}
     return from_dict(FleetConfig, apply_overrides(data, list(overrides)))

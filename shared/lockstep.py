@@ -41,12 +41,15 @@ class Barrier:
     def ack(self, msg: Ack) -> None:
         """Record an answer: ``msg.participant`` is next due at ``msg.next_tick``."""
         if msg.participant in self.stage_of:
-            self.next_tick[msg.participant] = max(msg.next_tick, self.next_tick.get(msg.participant, 0))
+            self.next_tick[msg.participant] = max(
+                msg.next_tick, self.next_tick.get(msg.participant, 0)
+            )
 
     def waiting_on(self, tick: int, stage: int) -> list[str]:
         """Live participants of ``stage`` that have not yet answered ``tick``."""
-        return sorted(p for p in self.alive
-                      if self.stage_of[p] == stage and self.next_tick.get(p, 0) <= tick)
+        return sorted(
+            p for p in self.alive if self.stage_of[p] == stage and self.next_tick.get(p, 0) <= tick
+        )
 
 
 class Participant:
@@ -57,8 +60,14 @@ class Participant:
     withheld until :meth:`release`; the simulator's timeout still bounds the wait.
     """
 
-    def __init__(self, name: str, stage: int, rate_hz: float, step: Callable[[Clock], None],
-                 publish_ack: Callable[[Ack], None]) -> None:
+    def __init__(
+        self,
+        name: str,
+        stage: int,
+        rate_hz: float,
+        step: Callable[[Clock], None],
+        publish_ack: Callable[[Ack], None],
+    ) -> None:
         self.name = name
         self.stage = stage
         self.rate_hz = rate_hz

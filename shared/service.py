@@ -35,17 +35,27 @@ def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags every program shares (zenoh's examples keep these in one helper too)."""
     parser.add_argument("--config", metavar="FILE", help="fleet config YAML (defaults if absent)")
     parser.add_argument(
-        "--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
         help="override one config value, e.g. --set sim.seed=3 (repeatable)",
     )
     parser.add_argument("--robot", help="robot name (namespace of its keys)")
-    parser.add_argument("--connect", metavar="ENDPOINT", action="append",
-                        help="router endpoint, e.g. tcp/192.168.1.20:7447 (repeatable)")
-    parser.add_argument("--listen", metavar="ENDPOINT", action="append",
-                        help="endpoint to listen on (repeatable)")
+    parser.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        action="append",
+        help="router endpoint, e.g. tcp/192.168.1.20:7447 (repeatable)",
+    )
+    parser.add_argument(
+        "--listen", metavar="ENDPOINT", action="append", help="endpoint to listen on (repeatable)"
+    )
     parser.add_argument("--mode", choices=["client", "peer", "router"], help="Zenoh session mode")
-    parser.add_argument("--log-level", default="INFO",
-                        choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    parser.add_argument(
+        "--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"]
+    )
 
 
 def config_from_args(args: argparse.Namespace) -> FleetConfig:
@@ -65,8 +75,9 @@ def config_from_args(args: argparse.Namespace) -> FleetConfig:
 
 def setup_logging(name: str, level: str = "INFO") -> logging.Logger:
     """One-line log records; the launcher adds the service prefix when it gathers outputs."""
-    logging.basicConfig(level=level, format="%(levelname).1s %(name)s: %(message)s",
-                        stream=sys.stderr, force=True)
+    logging.basicConfig(
+        level=level, format="%(levelname).1s %(name)s: %(message)s", stream=sys.stderr, force=True
+    )
     return logging.getLogger(f"wheelnav.{name}")
 
 
@@ -153,8 +164,9 @@ class Service:
             stage = len(stages)
             self.log.warning("%s is in no sim.lockstep_stages list; not in lockstep", self.name)
         ack_key = self.declare("publishes", self.keys.ack)
-        part = Participant(self.name, stage, rate_hz, step,
-                           lambda ack: self._publish_ack(ack_key, ack))
+        part = Participant(
+            self.name, stage, rate_hz, step, lambda ack: self._publish_ack(ack_key, ack)
+        )
         self.bus.subscribe(self.declare("subscribes", self.keys.clock), Clock, part.on_clock)
         return part
 

@@ -109,7 +109,9 @@ class Site:
         if not name:
             return self.floors[self.default_floor]
         if name not in self.floors:
-            raise SiteError(f"site {self.name}: no floor {name!r} (floors: {', '.join(self.floors)})")
+            raise SiteError(
+                f"site {self.name}: no floor {name!r} (floors: {', '.join(self.floors)})"
+            )
         return self.floors[name]
 
     def place(self, name: str) -> Place:
@@ -159,7 +161,9 @@ def load_map(yaml_path: str | Path) -> GridMap:
     return GridMap(np.flipud(cells).copy(), float(res), tuple(float(v) for v in origin))
 
 
-def _interpret(img: Image.Image, mode: str, negate: bool, occ_th: float, free_th: float) -> np.ndarray:
+def _interpret(
+    img: Image.Image, mode: str, negate: bool, occ_th: float, free_th: float
+) -> np.ndarray:
     """map_server's pixel rule: mean of the colour channels, alpha 0 = unknown."""
     arr = np.asarray(img)
     alpha = None
@@ -224,7 +228,10 @@ def _parse_site(path: Path, data: dict) -> Site:
         floor = str(d.get("floor", first))
         if floor not in floors:
             raise SiteError(f"{where}.floor: no floor {floor!r}")
-        p1, p2 = _point(_need(d, "p1", where), f"{where}.p1"), _point(_need(d, "p2", where), f"{where}.p2")
+        p1, p2 = (
+            _point(_need(d, "p1", where), f"{where}.p1"),
+            _point(_need(d, "p2", where), f"{where}.p2"),
+        )
         doors.append(Door(str(_need(d, "id", where)), floor, p1, p2, kind))
     places = {}
     for name, p in (data.get("places") or {}).items():
@@ -232,8 +239,13 @@ def _parse_site(path: Path, data: dict) -> Site:
         floor = str(p.get("floor", first))
         if floor not in floors:
             raise SiteError(f"{where}.floor: no floor {floor!r}")
-        places[str(name)] = Place(str(name), floor, float(_need(p, "x", where)),
-                                  float(_need(p, "y", where)), float(p.get("theta", 0.0)))
+        places[str(name)] = Place(
+            str(name),
+            floor,
+            float(_need(p, "x", where)),
+            float(_need(p, "y", where)),
+            float(p.get("theta", 0.0)),
+        )
     return Site(str(data.get("name", path.parent.name)), path.parent, floors, doors, places)
 
 

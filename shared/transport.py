@@ -46,7 +46,9 @@ def open_session(transport: TransportConfig) -> zenoh.Session:
         return zenoh.open(zenoh_config(transport))
     except zenoh.ZError as exc:
         where = ", ".join(transport.connect or transport.listen) or "default endpoints"
-        raise RuntimeError(f"cannot open a Zenoh {transport.mode} session ({where}): {exc}") from None
+        raise RuntimeError(
+            f"cannot open a Zenoh {transport.mode} session ({where}): {exc}"
+        ) from None
 
 
 class Bus:
@@ -74,7 +76,7 @@ class Bus:
         pub.put(encode(msg))
 
     def subscribe(self, key: str, msg_type: type[T] | None, callback: Callable[[T], None]) -> None:
-        """Call ``callback(msg)`` for each valid message on ``key`` (any type if ``msg_type`` is None)."""
+        """Call ``callback(msg)`` per valid message on ``key`` (any type if ``msg_type`` None)."""
 
         def on_sample(sample: zenoh.Sample) -> None:
             if sample.kind != zenoh.SampleKind.PUT:

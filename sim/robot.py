@@ -29,8 +29,9 @@ def _approach(current: float, target: float, max_step: float) -> float:
 class Chair:
     """Unicycle dynamics with speed and acceleration limits and a first-order motor lag."""
 
-    def __init__(self, robot: RobotConfig, state: ChairState, motor_lag_s: float,
-                 watchdog_s: float) -> None:
+    def __init__(
+        self, robot: RobotConfig, state: ChairState, motor_lag_s: float, watchdog_s: float
+    ) -> None:
         self.robot = robot
         self.state = state
         self.motor_lag_s = motor_lag_s
@@ -42,8 +43,10 @@ class Chair:
     def command(self, v: float, w: float, now: float) -> None:
         """Set the commanded speeds (clamped to the robot's limits)."""
         r = self.robot
-        self.cmd = (max(-r.max_reverse_speed, min(r.max_speed, v)),
-                    max(-r.max_turn_rate, min(r.max_turn_rate, w)))
+        self.cmd = (
+            max(-r.max_reverse_speed, min(r.max_speed, v)),
+            max(-r.max_turn_rate, min(r.max_turn_rate, w)),
+        )
         self.last_cmd_time = now
         self.watchdog_tripped = False
 

@@ -17,8 +17,16 @@ MAX_RAYS_PER_BATCH = 16384  # pybullet's limit for one rayTestBatch call
 class PlanarLidar:
     """A horizontal scanner of ``beams`` rays over ``fov_deg`` centred on the chair's heading."""
 
-    def __init__(self, client: int, beams: int, fov_deg: float, range_m: float, height_m: float,
-                 noise_m: float, rng: np.random.Generator) -> None:
+    def __init__(
+        self,
+        client: int,
+        beams: int,
+        fov_deg: float,
+        range_m: float,
+        height_m: float,
+        noise_m: float,
+        rng: np.random.Generator,
+    ) -> None:
         self.client = client
         self.range_m = range_m
         self.height_m = height_m
@@ -26,8 +34,11 @@ class PlanarLidar:
         self.rng = rng
         fov = math.radians(fov_deg)
         full_circle = fov >= 2 * math.pi - 1e-9
-        self.angles = (np.linspace(-math.pi, math.pi, beams, endpoint=False) if full_circle
-                       else np.linspace(-fov / 2, fov / 2, beams))
+        self.angles = (
+            np.linspace(-math.pi, math.pi, beams, endpoint=False)
+            if full_circle
+            else np.linspace(-fov / 2, fov / 2, beams)
+        )
         self._dirs = np.stack([np.cos(self.angles), np.sin(self.angles)], axis=1)
 
     def scan(self, x: float, y: float, theta: float) -> np.ndarray:
@@ -40,10 +51,12 @@ class PlanarLidar:
         ends[:, :2] += world_dirs * self.range_m
         fractions = np.empty(len(self.angles))
         for i in range(0, len(self.angles), MAX_RAYS_PER_BATCH):
-            hits = pb.rayTestBatch(starts[i:i + MAX_RAYS_PER_BATCH].tolist(),
-                                   ends[i:i + MAX_RAYS_PER_BATCH].tolist(),
-                                   physicsClientId=self.client)
-            fractions[i:i + len(hits)] = [h[2] if h[0] >= 0 else 1.0 for h in hits]
+            hits = pb.rayTestBatch(
+                starts[i : i + MAX_RAYS_PER_BATCH].tolist(),
+                ends[i : i + MAX_RAYS_PER_BATCH].tolist(),
+                physicsClientId=self.client,
+            )
+            fractions[i : i + len(hits)] = [h[2] if h[0] >= 0 else 1.0 for h in hits]
         hit = fractions < 1.0
         ranges = fractions[hit] * self.range_m
         if self.noise_m > 0:

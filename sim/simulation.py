@@ -44,9 +44,15 @@ class Simulation:
         self.rng = np.random.default_rng(sim.seed)
         start = ChairState(sim.start.x, sim.start.y, sim.start.theta)
         self.chair = Chair(robot, start, sim.motor_lag_s, sim.watchdog_s)
-        self.lidar = PlanarLidar(self.world.client, sim.lidar_beams, sim.lidar_fov_deg,
-                                 sim.lidar_range_m, robot.lidar_height_m, sim.lidar_noise_m,
-                                 self.rng)
+        self.lidar = PlanarLidar(
+            self.world.client,
+            sim.lidar_beams,
+            sim.lidar_fov_deg,
+            sim.lidar_range_m,
+            robot.lidar_height_m,
+            sim.lidar_noise_m,
+            self.rng,
+        )
         self.dt = sim.dt
         self.tick = 0
         self.time = 0.0
@@ -54,8 +60,9 @@ class Simulation:
         fp = robot.footprint
         half = [(fp.front + fp.rear) / 2, fp.width / 2, CHAIR_HEIGHT_M / 2]
         self._body_offset = (fp.front - fp.rear) / 2
-        shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half,
-                                        physicsClientId=self.world.client)
+        shape = pb.createCollisionShape(
+            pb.GEOM_BOX, halfExtents=half, physicsClientId=self.world.client
+        )
         self.body = pb.createMultiBody(0, shape, physicsClientId=self.world.client)
         self.collisions = 0
         self.in_collision = False
@@ -64,7 +71,9 @@ class Simulation:
         self._place_body()
         self._measure()
         if self.in_collision:
-            raise ValueError(f"start pose ({start.x:.2f}, {start.y:.2f}) puts the chair inside a wall")
+            raise ValueError(
+                f"start pose ({start.x:.2f}, {start.y:.2f}) puts the chair inside a wall"
+            )
 
     @property
     def state(self) -> ChairState:
@@ -99,8 +108,9 @@ class Simulation:
         cx = s.x + self._body_offset * math.cos(s.theta)
         cy = s.y + self._body_offset * math.sin(s.theta)
         orn = pb.getQuaternionFromEuler([0, 0, s.theta])
-        pb.resetBasePositionAndOrientation(self.body, [cx, cy, CHAIR_HEIGHT_M / 2 + 0.02], orn,
-                                           physicsClientId=self.world.client)
+        pb.resetBasePositionAndOrientation(
+            self.body, [cx, cy, CHAIR_HEIGHT_M / 2 + 0.02], orn, physicsClientId=self.world.client
+        )
 
     def _measure(self) -> None:
         """Footprint clearance to the nearest wall (negative = penetration) and collision flag."""

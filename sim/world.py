@@ -45,8 +45,9 @@ class World:
         for r0, c0, r1, c1 in merge_boxes(grid.occupied(unknown_is_occupied)):
             half = [(c1 - c0) * res / 2, (r1 - r0) * res / 2, WALL_HEIGHT_M / 2]
             centre = [ox + (c0 + c1) * res / 2, oy + (r0 + r1) * res / 2, WALL_HEIGHT_M / 2]
-            shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half,
-                                            physicsClientId=self.client)
+            shape = pb.createCollisionShape(
+                pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client
+            )
             body = pb.createMultiBody(0, shape, basePosition=centre, physicsClientId=self.client)
             self.wall_ids.add(body)
 

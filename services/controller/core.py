@@ -112,4 +112,6 @@ class PathFollower:
 
     def _point_at(self, s: float) -> np.ndarray:
         s = min(s, float(self._s[-1]))
-        return np.array([np.interp(s, self._s, self._pts[:, 0]), np.interp(s, self._s, self._pts[:, 1])])
+        return np.array(
+            [np.interp(s, self._s, self._pts[:, 0]), np.interp(s, self._s, self._pts[:, 1])]
+        )

@@ -37,8 +37,14 @@ def main(argv: list[str] | None = None) -> None:
                 p = pose.pose
                 cmd = follower.step(p.x, p.y, p.theta, fresh)
                 cmd_v, cmd_w = cmd.v, cmd.w
-                status = FollowStatus(clock.stamp, follower.path_id, cmd.state, cmd.progress,
-                                      cmd.distance_to_goal, cmd.cross_track)
+                status = FollowStatus(
+                    clock.stamp,
+                    follower.path_id,
+                    cmd.state,
+                    cmd.progress,
+                    cmd.distance_to_goal,
+                    cmd.cross_track,
+                )
             bus.publish(cmd_key, Twist(clock.stamp, cmd_v, cmd_w))
             bus.publish(status_key, status)
 

@@ -18,21 +18,37 @@ COMPOSE_FILE = Path(__file__).resolve().parents[2] / "docker-compose.yml"
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("up", help="start the whole fleet around a local Zenoh router",
-                       description="Start the whole fleet as child processes around an "
-                                   "in-process Zenoh router. Ctrl-C stops everything.")
+    p = sub.add_parser(
+        "up",
+        help="start the whole fleet around a local Zenoh router",
+        description="Start the whole fleet as child processes around an "
+        "in-process Zenoh router. Ctrl-C stops everything.",
+    )
     p.add_argument("--profile", choices=PROFILES, default="sim")
     p.add_argument("--config", metavar="FILE", help="fleet config YAML")
-    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
-                   help="override one config value (repeatable)")
-    p.add_argument("--listen", metavar="ENDPOINT",
-                   help="router endpoint (default: launcher.router_listen, tcp/127.0.0.1:7447); "
-                        "use tcp/0.0.0.0:7447 to let a laptop connect")
+    p.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="override one config value (repeatable)",
+    )
+    p.add_argument(
+        "--listen",
+        metavar="ENDPOINT",
+        help="router endpoint (default: launcher.router_listen, tcp/127.0.0.1:7447); "
+        "use tcp/0.0.0.0:7447 to let a laptop connect",
+    )
     p.set_defaults(run=run_up)
-    c = sub.add_parser("compose", help="print docker-compose.yml generated from the fleet",
-                       description="Print the docker-compose.yml that describes the same fleet.")
-    c.add_argument("--check", action="store_true",
-                   help="exit 1 if the committed docker-compose.yml differs")
+    c = sub.add_parser(
+        "compose",
+        help="print docker-compose.yml generated from the fleet",
+        description="Print the docker-compose.yml that describes the same fleet.",
+    )
+    c.add_argument(
+        "--check", action="store_true", help="exit 1 if the committed docker-compose.yml differs"
+    )
     c.set_defaults(run=run_compose)
 
 
@@ -52,8 +68,9 @@ def run_up(args: argparse.Namespace) -> int:
     sup.say(f"router listening on {listen}; starting {', '.join(s.name for s in specs)}")
     sup.start()
     try:
-        missing = wait_ready(bus, Keys(cfg.robot.name), [s.name for s in specs],
-                             cfg.launcher.ready_timeout_s, stop)
+        missing = wait_ready(
+            bus, Keys(cfg.robot.name), [s.name for s in specs], cfg.launcher.ready_timeout_s, stop
+        )
         if missing and not stop.is_set():
             sup.say(f"not up after {cfg.launcher.ready_timeout_s:.0f} s: {', '.join(missing)}")
         elif not stop.is_set():
@@ -71,8 +88,10 @@ def run_compose(args: argparse.Namespace) -> int:
     if args.check:
         current = COMPOSE_FILE.read_text() if COMPOSE_FILE.is_file() else ""
         if current != text:
-            print("docker-compose.yml is out of date: run `wheelnav compose > docker-compose.yml`",
-                  file=sys.stderr)
+            print(
+                "docker-compose.yml is out of date: run `wheelnav compose > docker-compose.yml`",
+                file=sys.stderr,
+            )
             return 1
         return 0
     sys.stdout.write(text)

@@ -35,8 +35,10 @@ def compose_dict() -> dict:
             "image": IMAGE,
             "build": {"context": ".", "dockerfile": "deploy/Dockerfile"},
             "command": command,
-            "volumes": [f"./deploy/fleet.${{WHEELNAV_PROFILE:-sim}}.yaml:{CONFIG_IN_CONTAINER}:ro",
-                        "./sites:/app/sites:ro"],
+            "volumes": [
+                f"./deploy/fleet.${{WHEELNAV_PROFILE:-sim}}.yaml:{CONFIG_IN_CONTAINER}:ro",
+                "./sites:/app/sites:ro",
+            ],
             "depends_on": ["router"],
             "restart": "on-failure",
             "profiles": list(spec.profiles),

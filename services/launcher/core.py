@@ -18,7 +18,7 @@ class Backoff:
         """Seconds to wait before restarting a service that exited after ``ran_for_s``."""
         if ran_for_s >= self.reset_after_s:
             self.failures = 0
-        delay = min(self.max_s, self.base_s * (2 ** self.failures))
+        delay = min(self.max_s, self.base_s * (2**self.failures))
         self.failures += 1
         return delay
 

@@ -26,15 +26,25 @@ class ServiceSpec:
 
 
 SERVICES: tuple[ServiceSpec, ...] = (
-    ServiceSpec("sim", "services.sim.node", ("sim",),
-                "pybullet simulator: clock, odometry, LiDAR, collisions"),
-    ServiceSpec("localisation", "services.localisation.node", ("sim", "hardware"),
-                "pose on the floor map"),
+    ServiceSpec(
+        "sim",
+        "services.sim.node",
+        ("sim",),
+        "pybullet simulator: clock, odometry, LiDAR, collisions",
+    ),
+    ServiceSpec(
+        "localisation", "services.localisation.node", ("sim", "hardware"), "pose on the floor map"
+    ),
     ServiceSpec("planner", "services.planner.node", ("sim", "hardware"), "routes on the site maps"),
-    ServiceSpec("controller", "services.controller.node", ("sim", "hardware"),
-                "path tracking: velocity commands"),
-    ServiceSpec("navigator", "services.navigator.node", ("sim", "hardware"),
-                "mission behaviour tree"),
+    ServiceSpec(
+        "controller",
+        "services.controller.node",
+        ("sim", "hardware"),
+        "path tracking: velocity commands",
+    ),
+    ServiceSpec(
+        "navigator", "services.navigator.node", ("sim", "hardware"), "mission behaviour tree"
+    ),
 )
 PROFILES = ("sim", "hardware")
 

@@ -26,8 +26,9 @@ from shared.transport import Bus, open_session
 
 def open_router(listen: str) -> Bus:
     """A bus on a Zenoh session in router mode listening on ``listen`` (loopback by default)."""
-    return Bus(open_session(TransportConfig(mode="router", connect=[], listen=[listen])),
-               "launcher")
+    return Bus(
+        open_session(TransportConfig(mode="router", connect=[], listen=[listen])), "launcher"
+    )
 
 
 @dataclass
@@ -46,9 +47,16 @@ class _Child:
 class Supervisor:
     """Starts, watches, restarts and stops the fleet's service processes."""
 
-    def __init__(self, specs: list[ServiceSpec], connect: str, cfg: LauncherConfig,
-                 config_path: str | None = None, extra_args: list[str] = (),
-                 out: TextIO = sys.stdout, colour: bool | None = None) -> None:
+    def __init__(
+        self,
+        specs: list[ServiceSpec],
+        connect: str,
+        cfg: LauncherConfig,
+        config_path: str | None = None,
+        extra_args: list[str] = (),
+        out: TextIO = sys.stdout,
+        colour: bool | None = None,
+    ) -> None:
         self.connect = connect
         self.config_path = config_path
         self.extra_args = list(extra_args)
@@ -56,8 +64,13 @@ class Supervisor:
         self.colour = out.isatty() if colour is None else colour
         self._width = max(len(s.name) for s in specs) if specs else 8
         self._children = {
-            s.name: _Child(s, i, Backoff(cfg.restart_backoff_s, cfg.restart_backoff_max_s,
-                                         cfg.restart_reset_after_s))
+            s.name: _Child(
+                s,
+                i,
+                Backoff(
+                    cfg.restart_backoff_s, cfg.restart_backoff_max_s, cfg.restart_reset_after_s
+                ),
+            )
             for i, s in enumerate(specs)
         }
         self._stopping = threading.Event()
@@ -109,19 +122,26 @@ class Supervisor:
         cmd = spec.command(self.config_path or "", self.connect)
         if not self.config_path:
             i = cmd.index("--config")
-            del cmd[i:i + 2]
+            del cmd[i : i + 2]
         return [sys.executable, *cmd[1:], *self.extra_args]
 
     def _spawn(self, child: _Child) -> None:
         env = dict(os.environ, PYTHONUNBUFFERED="1")
-        child.proc = subprocess.Popen(self._command(child.spec), stdout=subprocess.PIPE,
-                                      stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                      text=True, bufsize=1, env=env)
+        child.proc = subprocess.Popen(
+            self._command(child.spec),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            bufsize=1,
+            env=env,
+        )
         child.started_at = time.monotonic()
         child.restart_at = None
         tag = prefix(child.spec.name, child.index, self._width, self.colour)
-        child.reader = threading.Thread(target=self._pump, args=(child.proc.stdout, tag),
-                                        daemon=True)
+        child.reader = threading.Thread(
+            target=self._pump, args=(child.proc.stdout, tag), daemon=True
+        )
         child.reader.start()
 
     def _pump(self, stream: TextIO, tag: str) -> None:
@@ -150,16 +170,19 @@ class Supervisor:
                     continue
                 if code == EXIT_CONFIG:
                     child.given_up = True
-                    self.say(f"{child.spec.name} exited with a configuration error; "
-                             "not restarting it (fix the config and run again)")
+                    self.say(
+                        f"{child.spec.name} exited with a configuration error; "
+                        "not restarting it (fix the config and run again)"
+                    )
                     continue
                 delay = child.backoff.on_exit(now - child.started_at)
                 child.restart_at = now + delay
                 self.say(f"{child.spec.name} exited with code {code}; restarting in {delay:.1f} s")
 
 
-def wait_ready(bus: Bus, keys: Keys, names: list[str], timeout_s: float,
-               stop: threading.Event | None = None) -> list[str]:
+def wait_ready(
+    bus: Bus, keys: Keys, names: list[str], timeout_s: float, stop: threading.Event | None = None
+) -> list[str]:
     """Wait until every service in ``names`` holds its liveliness token; returns the missing."""
     deadline = time.monotonic() + timeout_s
     missing = set(names)

@@ -8,7 +8,7 @@ controller acts on that tick.
 from __future__ import annotations
 
 from services.localisation.core import OdometryLocaliser
-from shared.messages import Clock, Odometry, PoseEstimate, Pose2D
+from shared.messages import Clock, Odometry, Pose2D, PoseEstimate
 from shared.service import Service
 
 NAME = "localisation"
@@ -30,8 +30,9 @@ def main(argv: list[str] | None = None) -> None:
                 return
             x, y, theta = loc.update(odom.pose.x, odom.pose.y, odom.pose.theta)
             floor = loc.floor or odom.pose.floor
-            bus.publish(pose_key, PoseEstimate(odom.stamp, Pose2D(x, y, theta, floor),
-                                               loc.covariance))
+            bus.publish(
+                pose_key, PoseEstimate(odom.stamp, Pose2D(x, y, theta, floor), loc.covariance)
+            )
 
         bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, on_odom)
         pose_key = svc.declare("publishes", keys.pose)

@@ -11,12 +11,21 @@ from services.mission.node import MissionRun, format_report, write_report
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("mission", help="run the fleet for one scenario and report",
-                       description="Run the fleet for one scenario (docs/scenarios.md) and report.")
+    p = sub.add_parser(
+        "mission",
+        help="run the fleet for one scenario and report",
+        description="Run the fleet for one scenario (docs/scenarios.md) and report.",
+    )
     p.add_argument("scenario", help="scenario YAML")
     p.add_argument("--report", metavar="FILE", help="write the JSON report here")
-    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
-                   help="override one fleet config value (repeatable)")
+    p.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="override one fleet config value (repeatable)",
+    )
     p.add_argument("--quiet", action="store_true", help="only print the report")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(run=run)

@@ -37,18 +37,27 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     data = config_mod.read_yaml(path)
     unknown = sorted(set(data) - SCENARIO_KEYS)
     if unknown:
-        raise ConfigError(f"{path}: unknown key {unknown[0]!r} (known: {', '.join(sorted(SCENARIO_KEYS))})")
+        raise ConfigError(
+            f"{path}: unknown key {unknown[0]!r} (known: {', '.join(sorted(SCENARIO_KEYS))})"
+        )
     for key in ("site", "start", "goal"):
         if key not in data:
             raise ConfigError(f"{path}: missing key {key!r}")
     site = Path(data["site"])
     if not site.is_absolute():
         site = (path.parent / site).resolve()
-    fleet = config_mod.merge(data.get("config") or {}, {
-        "site": str(site),
-        "sim": {"start": data["start"], "seed": data.get("seed", 0), "realtime_factor": 0.0,
-                "start_after": ["localisation", "planner", "controller", "navigator", "mission"]},
-    })
+    fleet = config_mod.merge(
+        data.get("config") or {},
+        {
+            "site": str(site),
+            "sim": {
+                "start": data["start"],
+                "seed": data.get("seed", 0),
+                "realtime_factor": 0.0,
+                "start_after": ["localisation", "planner", "controller", "navigator", "mission"],
+            },
+        },
+    )
     cfg = config_mod.from_dict(FleetConfig, config_mod.apply_overrides(fleet, list(overrides)))
     goal_data = data["goal"]
     if not isinstance(goal_data, dict):
@@ -57,10 +66,16 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     goal = None
     if not place:
         try:
-            goal = Pose2D(float(goal_data["x"]), float(goal_data["y"]),
-                          float(goal_data.get("theta", 0.0)), str(goal_data.get("floor", "")))
+            goal = Pose2D(
+                float(goal_data["x"]),
+                float(goal_data["y"]),
+                float(goal_data.get("theta", 0.0)),
+                str(goal_data.get("floor", "")),
+            )
         except (KeyError, TypeError, ValueError):
-            raise ConfigError(f"{path}: goal: expected {{place: NAME}} or {{x, y, theta, floor}}") from None
+            raise ConfigError(
+                f"{path}: goal: expected {{place: NAME}} or {{x, y, theta, floor}}"
+            ) from None
     limit = data.get("time_limit_s", 300.0)
     if not isinstance(limit, int | float) or limit <= 0:
         raise ConfigError(f"{path}: time_limit_s: must be > 0, got {limit!r}")
@@ -137,11 +152,19 @@ class Recorder:
             "reason": reason,
             "state": self.state,
             "collisions": self.collisions,
-            "min_clearance_m": round(self.min_clearance_m, 4) if math.isfinite(self.min_clearance_m) else None,
+            "min_clearance_m": round(self.min_clearance_m, 4)
+            if math.isfinite(self.min_clearance_m)
+            else None,
             "sim_time_s": round(self.sim_time_s, 3),
             "wall_time_s": round(wall_time_s, 3),
             "path_length_m": round(self.path_length_m, 3),
-            "phases": [{"name": p.name, "start_s": round(p.start_s, 3),
-                        "end_s": None if p.end_s is None else round(p.end_s, 3)} for p in self.phases],
+            "phases": [
+                {
+                    "name": p.name,
+                    "start_s": round(p.start_s, 3),
+                    "end_s": None if p.end_s is None else round(p.end_s, 3),
+                }
+                for p in self.phases
+            ],
             "events": self.events,
         }

@@ -42,8 +42,13 @@ def free_port() -> int:
 class MissionRun:
     """One scenario run: fleet up, goal sent at tick 0, recorder fed, fleet down."""
 
-    def __init__(self, scenario: Scenario, out: TextIO = sys.stdout, quiet: bool = False,
-                 fleet_output: TextIO | None = None) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        out: TextIO = sys.stdout,
+        quiet: bool = False,
+        fleet_output: TextIO | None = None,
+    ) -> None:
         self.scenario = scenario
         self.out = out
         self.quiet = quiet
@@ -75,8 +80,9 @@ class MissionRun:
             self._say(f"scenario {self.scenario.name}: fleet starting on {endpoint}")
             self.supervisor.start()
             try:
-                missing = wait_ready(bus, self.keys, [s.name for s in specs],
-                                     cfg.launcher.ready_timeout_s, self.done)
+                missing = wait_ready(
+                    bus, self.keys, [s.name for s in specs], cfg.launcher.ready_timeout_s, self.done
+                )
                 if missing:
                     self.recorder.state = "failed"
                     self.recorder.reason = f"services not up: {', '.join(missing)}"
@@ -94,14 +100,16 @@ class MissionRun:
 
     def _wire(self, bus: Bus) -> None:
         keys = self.keys
-        participant = Participant(NAME, self._stage(), 10.0, self._step,
-                                  lambda ack: bus.publish(keys.ack, ack))
+        participant = Participant(
+            NAME, self._stage(), 10.0, self._step, lambda ack: bus.publish(keys.ack, ack)
+        )
         self._bus = bus
         bus.subscribe(keys.clock, Clock, participant.on_clock)
         bus.subscribe(keys.nav_status, NavStatus, self._on_status)
         bus.subscribe(keys.sim_status, SimStatus, self.recorder.on_sim_status)
-        bus.subscribe(keys.ground_truth, Odometry,
-                      lambda m: self.recorder.on_truth(m.pose.x, m.pose.y))
+        bus.subscribe(
+            keys.ground_truth, Odometry, lambda m: self.recorder.on_truth(m.pose.x, m.pose.y)
+        )
         bus.subscribe(keys.key("events"), Event, self._on_event)
 
     def _stage(self) -> int:
@@ -111,7 +119,9 @@ class MissionRun:
     def _step(self, clock: Clock) -> None:
         if not self._goal_sent:
             s = self.scenario
-            self._bus.publish(self.keys.nav_goal, NavGoal(clock.stamp, self.goal_id, s.goal, s.place))
+            self._bus.publish(
+                self.keys.nav_goal, NavGoal(clock.stamp, self.goal_id, s.goal, s.place)
+            )
             self._goal_sent = True
             self._say(f"t={clock.stamp:6.1f} s  goal sent: {s.place or s.goal}")
         self.recorder.on_time(clock.stamp, self.scenario.time_limit_s)
@@ -119,8 +129,10 @@ class MissionRun:
             self._last_progress = clock.stamp
             st = self._last_status
             if st is not None:
-                self._say(f"t={clock.stamp:6.1f} s  {st.state:9s} phase={st.phase or '-':7s} "
-                          f"progress={100 * st.progress:5.1f} %  {st.reason}")
+                self._say(
+                    f"t={clock.stamp:6.1f} s  {st.state:9s} phase={st.phase or '-':7s} "
+                    f"progress={100 * st.progress:5.1f} %  {st.reason}"
+                )
         if self.recorder.finished:
             self.done.set()
 
@@ -131,8 +143,9 @@ class MissionRun:
             self.done.set()
 
     def _on_event(self, msg: Event) -> None:
-        self.recorder.events.append({"t": round(msg.stamp, 3), "source": msg.source,
-                                     "kind": msg.kind, "detail": msg.detail})
+        self.recorder.events.append(
+            {"t": round(msg.stamp, 3), "source": msg.source, "kind": msg.kind, "detail": msg.detail}
+        )
 
     def _say(self, text: str) -> None:
         if not self.quiet:
@@ -153,12 +166,14 @@ class _Null:
 
 def format_report(report: dict[str, Any]) -> str:
     """A short human-readable summary of a report."""
-    lines = [f"mission {report['scenario']}: {'SUCCESS' if report['success'] else 'FAILURE'}"
-             f" ({report['reason']})",
-             f"  sim time {report['sim_time_s']:.1f} s, wall time {report['wall_time_s']:.1f} s, "
-             f"path {report['path_length_m']:.2f} m",
-             f"  collisions {report['collisions']}, min clearance "
-             f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m"]
+    lines = [
+        f"mission {report['scenario']}: {'SUCCESS' if report['success'] else 'FAILURE'}"
+        f" ({report['reason']})",
+        f"  sim time {report['sim_time_s']:.1f} s, wall time {report['wall_time_s']:.1f} s, "
+        f"path {report['path_length_m']:.2f} m",
+        f"  collisions {report['collisions']}, min clearance "
+        f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m",
+    ]
     for p in report["phases"]:
         end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
         lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")

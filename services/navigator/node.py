@@ -49,8 +49,9 @@ class ZenohFleet:
     def now(self) -> float:
         return self.clock.stamp if self.clock else 0.0
 
-    def request_route(self, goal: Pose2D | None, place: str,
-                      on_done: Callable[[RouteReply | None, str], None]) -> None:
+    def request_route(
+        self, goal: Pose2D | None, place: str, on_done: Callable[[RouteReply | None, str], None]
+    ) -> None:
         if self._pose is None:
             on_done(None, "no pose estimate yet")
             return
@@ -113,8 +114,9 @@ class Navigator:
         if self.tree is not None and self.status.state == "running":
             self.tree.interrupt()
         self.bb.goal, self.bb.place, self.bb.failure, self.bb.phase = msg.goal, msg.place, "", ""
-        root = create_mission_tree(self.fleet.now, self.cfg.plan_timeout_s,
-                                   self.cfg.follow_timeout_s)
+        root = create_mission_tree(
+            self.fleet.now, self.cfg.plan_timeout_s, self.cfg.follow_timeout_s
+        )
         self.tree = py_trees.trees.BehaviourTree(root)
         self.tree.setup(timeout=5.0, fleet=self.fleet)
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
@@ -132,16 +134,25 @@ class Navigator:
                 self._set("failed", reason=self.bb.failure or "mission failed")
             else:
                 tip = self.tree.tip()
-                self._set("running", phase=self.bb.phase, action="navigate",
-                          reason=tip.feedback_message if tip else "")
+                self._set(
+                    "running",
+                    phase=self.bb.phase,
+                    action="navigate",
+                    reason=tip.feedback_message if tip else "",
+                )
         self._publish(clock.stamp)
 
     def _set(self, state: str, **fields) -> None:
         s = self.status
-        self.status = NavStatus(self.fleet.now(), s.goal_id, state,
-                                fields.get("action", s.action if state == "running" else ""),
-                                fields.get("phase", s.phase), fields.get("reason", ""),
-                                self._progress())
+        self.status = NavStatus(
+            self.fleet.now(),
+            s.goal_id,
+            state,
+            fields.get("action", s.action if state == "running" else ""),
+            fields.get("phase", s.phase),
+            fields.get("reason", ""),
+            self._progress(),
+        )
         if state in ("failed", "succeeded", "cancelled"):
             self.svc.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
 

@@ -64,8 +64,14 @@ class Planner:
             raise errors.UnknownPlace(str(exc)) from None
         return p.x, p.y, p.theta, p.floor
 
-    def route(self, start: tuple[float, float], start_floor: str,
-              goal: tuple[float, float] | None, goal_floor: str, place: str = "") -> Plan:
+    def route(
+        self,
+        start: tuple[float, float],
+        start_floor: str,
+        goal: tuple[float, float] | None,
+        goal_floor: str,
+        place: str = "",
+    ) -> Plan:
         """Plan to ``goal`` on ``goal_floor`` or to the named ``place`` (one of them is needed)."""
         if place:
             gx, gy, _theta, goal_floor = self.resolve_place(place)
@@ -101,8 +107,13 @@ class Planner:
         length = float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum())
         return Plan(floor, waypoints, v_ref, length)
 
-    def _cell(self, fg: _FloorGrid, xy: tuple[float, float], what: str,
-              blocked_error: type[errors.PlanError]) -> tuple[int, int]:
+    def _cell(
+        self,
+        fg: _FloorGrid,
+        xy: tuple[float, float],
+        what: str,
+        blocked_error: type[errors.PlanError],
+    ) -> tuple[int, int]:
         if not all(math.isfinite(v) for v in xy):
             raise errors.OutsideMap(f"{what} {xy} is not a finite point")
         r, c = fg.grid.to_cell(*xy)
@@ -152,8 +163,9 @@ def densify(points: np.ndarray, spacing: float) -> np.ndarray:
     return np.asarray(out, dtype=float)
 
 
-def speed_profile(waypoints: np.ndarray, cruise: float, slow_radius: float,
-                  min_speed: float = 0.1) -> np.ndarray:
+def speed_profile(
+    waypoints: np.ndarray, cruise: float, slow_radius: float, min_speed: float = 0.1
+) -> np.ndarray:
     """Cruise speed, falling linearly within ``slow_radius`` of the goal, 0 at the goal."""
     legs = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
     to_go = np.concatenate([np.cumsum(legs[::-1])[::-1], [0.0]])

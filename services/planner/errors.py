@@ -43,6 +43,15 @@ class BadRequest(PlanError):
 
 CODES: dict[str, type[PlanError]] = {
     cls.code: cls
-    for cls in (PlanError, UnknownPlace, UnknownFloor, OutsideMap, StartOccupied, GoalOccupied,
-                NoPath, CrossFloorUnsupported, BadRequest)
+    for cls in (
+        PlanError,
+        UnknownPlace,
+        UnknownFloor,
+        OutsideMap,
+        StartOccupied,
+        GoalOccupied,
+        NoPath,
+        CrossFloorUnsupported,
+        BadRequest,
+    )
 }

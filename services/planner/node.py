@@ -32,14 +32,16 @@ def main(argv: list[str] | None = None) -> None:
             goal = (req.goal.x, req.goal.y) if req.goal is not None else None
             goal_floor = req.goal.floor if req.goal is not None else ""
             try:
-                plan = planner.route((req.start.x, req.start.y), req.start.floor, goal,
-                                     goal_floor, req.place)
+                plan = planner.route(
+                    (req.start.x, req.start.y), req.start.floor, goal, goal_floor, req.place
+                )
             except PlanError as exc:
                 svc.log.warning("route refused (%s): %s", exc.code, exc)
                 return RouteReply(False, error_code=exc.code, error=str(exc))
             path = Path(0.0, f"route-{next(ids)}", plan.floor, plan.waypoints, plan.v_ref)
-            svc.log.info("route %s: %.1f m, %d waypoints", path.path_id, plan.length_m,
-                         len(plan.waypoints))
+            svc.log.info(
+                "route %s: %.1f m, %d waypoints", path.path_id, plan.length_m, len(plan.waypoints)
+            )
             return RouteReply(True, path=path)
 
         bus.serve(svc.declare("serves", keys.route), RouteRequest, on_route)

@@ -10,10 +10,10 @@ from __future__ import annotations
 import threading
 import time
 
+from shared.lockstep import Barrier
 from shared.messages import Ack, Clock, Event, Odometry, PointCloud, Pose2D, SimStatus, Twist
 from shared.service import Service
 from shared.site import SiteError, load_site
-from shared.lockstep import Barrier
 from sim.simulation import Simulation
 
 NAME = "sim"
@@ -67,8 +67,11 @@ def _wait_for_fleet(svc: Service, barrier: Barrier, wake: threading.Condition) -
                 svc.log.info("fleet present; starting the clock")
                 return
             if time.monotonic() > deadline:
-                svc.log.warning("starting without %s (waited %.0f s)", ", ".join(sorted(missing)),
-                                svc.cfg.sim.start_wait_s)
+                svc.log.warning(
+                    "starting without %s (waited %.0f s)",
+                    ", ".join(sorted(missing)),
+                    svc.cfg.sim.start_wait_s,
+                )
                 return
             wake.wait(0.2)
             present |= {k.rsplit("/", 1)[-1] for k in svc.bus.alive(svc.keys.key("alive"), 0.2)}
@@ -91,14 +94,22 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
         bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
         events_key = keys.key("events", source=NAME)
         if result.new_collision:
-            bus.publish(events_key, Event(stamp, NAME, "collision",
-                                          f"at ({s.x:.2f}, {s.y:.2f})", "error"))
+            bus.publish(
+                events_key, Event(stamp, NAME, "collision", f"at ({s.x:.2f}, {s.y:.2f})", "error")
+            )
         for text in result.events:
             bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
         if result.new_collision or result.tick % status_every == 0:
-            bus.publish(keys.sim_status, SimStatus(stamp, sim.collisions, sim.in_collision,
-                                                   _finite(sim.clearance),
-                                                   _finite(sim.min_clearance)))
+            bus.publish(
+                keys.sim_status,
+                SimStatus(
+                    stamp,
+                    sim.collisions,
+                    sim.in_collision,
+                    _finite(sim.clearance),
+                    _finite(sim.min_clearance),
+                ),
+            )
         for stage in range(barrier.n_stages):
             with wake:
                 due = barrier.waiting_on(result.tick, stage) if cfg.sim.lockstep else []
@@ -110,17 +121,22 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
                 if timeouts <= 10 or timeouts % 100 == 0:
                     with wake:
                         late = barrier.waiting_on(result.tick, stage)
-                    svc.log.warning("tick %d: no answer from %s within %.2f s (%d so far)",
-                                    result.tick, ", ".join(late), cfg.sim.lockstep_timeout_s,
-                                    timeouts)
+                    svc.log.warning(
+                        "tick %d: no answer from %s within %.2f s (%d so far)",
+                        result.tick,
+                        ", ".join(late),
+                        cfg.sim.lockstep_timeout_s,
+                        timeouts,
+                    )
         if cfg.sim.realtime_factor > 0:
             ahead = stamp / cfg.sim.realtime_factor - (time.monotonic() - wall_start)
             if ahead > 0:
                 svc.stop_event.wait(ahead)
 
 
-def _wait_stage(svc: Service, barrier: Barrier, wake: threading.Condition, tick: int,
-                stage: int) -> bool:
+def _wait_stage(
+    svc: Service, barrier: Barrier, wake: threading.Condition, tick: int, stage: int
+) -> bool:
     """Wait until every live participant of ``stage`` answered ``tick``; False on timeout."""
     with wake:
         return wake.wait_for(

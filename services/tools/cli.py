@@ -7,11 +7,11 @@ reports every key it heard (with its message type and rate) plus the live servic
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import threading
 import time
 from collections import defaultdict
-
 
 from services.tools.core import RateMeter, summarise
 from shared.codec import DecodeError, decode, peek_tag, to_plain
@@ -21,13 +21,18 @@ from shared.transport import Bus, open_session
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("topic", help="list, echo or measure live topics",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "topic", help="list, echo or measure live topics", description=__doc__.splitlines()[0]
+    )
     tsub = p.add_subparsers(dest="topic_command", required=True)
 
     def common(q: argparse.ArgumentParser) -> None:
-        q.add_argument("--connect", metavar="ENDPOINT", default="tcp/127.0.0.1:7447",
-                       help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local)")
+        q.add_argument(
+            "--connect",
+            metavar="ENDPOINT",
+            default="tcp/127.0.0.1:7447",
+            help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local)",
+        )
 
     ls = tsub.add_parser("list", help="keys heard on the bus, with type and rate")
     common(ls)
@@ -53,10 +58,8 @@ def _bus(args: argparse.Namespace) -> Bus:
 
 
 def _wait(stop: threading.Event, duration: float) -> None:
-    try:
+    with contextlib.suppress(KeyboardInterrupt):
         stop.wait(duration if duration > 0 else None)
-    except KeyboardInterrupt:
-        pass
 
 
 def run_list(args: argparse.Namespace) -> int:
@@ -98,7 +101,11 @@ def run_echo(args: argparse.Namespace) -> int:
         try:
             msg = decode(payload)
         except DecodeError as exc:
-            line = json.dumps({"key": key, "error": str(exc)}) if args.json else f"{key}: bad message: {exc}"
+            line = (
+                json.dumps({"key": key, "error": str(exc)})
+                if args.json
+                else f"{key}: bad message: {exc}"
+            )
         else:
             if args.json:
                 line = json.dumps({"key": key, **to_plain(msg)})
@@ -131,14 +138,14 @@ def run_hz(args: argparse.Namespace) -> int:
             if r is None:
                 print(f"{args.key}: no messages yet", flush=True)
             else:
-                print(f"{args.key}: {r['rate_hz']:.2f} Hz  min {r['min_ms']:.1f} ms  "
-                      f"max {r['max_ms']:.1f} ms  std {r['std_ms']:.1f} ms  window {r['n']}",
-                      flush=True)
+                print(
+                    f"{args.key}: {r['rate_hz']:.2f} Hz  min {r['min_ms']:.1f} ms  "
+                    f"max {r['max_ms']:.1f} ms  std {r['std_ms']:.1f} ms  window {r['n']}",
+                    flush=True,
+                )
             if deadline and time.monotonic() >= deadline:
                 break
     except KeyboardInterrupt:
         pass
     bus.close()
     return 0 if meter.stats() is not None else 1
-
-

@@ -24,7 +24,9 @@ def _show(value: object, indent: str) -> str:
         more = " ..." if len(value) > 3 else ""
         return f"array {value.dtype} {value.shape} {head}{more}"
     if dataclasses.is_dataclass(value):
-        inner = ", ".join(f"{f.name}={_fmt(getattr(value, f.name))}" for f in dataclasses.fields(value))
+        inner = ", ".join(
+            f"{f.name}={_fmt(getattr(value, f.name))}" for f in dataclasses.fields(value)
+        )
         return f"{{{inner}}}"
     return _fmt(value)
 
@@ -51,5 +53,10 @@ class RateMeter:
             return None
         gaps = np.diff(np.asarray(self.times))
         mean = float(gaps.mean())
-        return {"rate_hz": 1.0 / mean if mean > 0 else float("inf"), "min_ms": 1e3 * gaps.min(),
-                "max_ms": 1e3 * gaps.max(), "std_ms": 1e3 * gaps.std(), "n": len(gaps)}
+        return {
+            "rate_hz": 1.0 / mean if mean > 0 else float("inf"),
+            "min_ms": 1e3 * gaps.min(),
+            "max_ms": 1e3 * gaps.max(),
+            "std_ms": 1e3 * gaps.std(),
+            "n": len(gaps),
+        }

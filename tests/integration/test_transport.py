@@ -6,13 +6,18 @@ import subprocess
 import threading
 import time
 
-from shared.messages import Event, RouteReply, RouteRequest, Pose2D, Twist
+from shared.messages import Event, Pose2D, RouteReply, RouteRequest, Twist
 from tests.conftest import PYTHON, ROOT
 
 
 def start_peer(endpoint: str, bus) -> subprocess.Popen:
-    proc = subprocess.Popen([PYTHON, "-m", "tests.integration.peer", "--connect", endpoint],
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        [PYTHON, "-m", "tests.integration.peer", "--connect", endpoint],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline and not bus.alive("test/alive/*", 0.5):
         assert proc.poll() is None, proc.stdout.read()
@@ -35,7 +40,9 @@ def test_pubsub_request_and_bad_messages_across_processes(router) -> None:
     peer = start_peer(endpoint, bus)
     try:
         # request/response
-        reply = bus.call("test/echo", RouteRequest(Pose2D(0, 0, 0), place="room_b"), RouteReply, 5.0)
+        reply = bus.call(
+            "test/echo", RouteRequest(Pose2D(0, 0, 0), place="room_b"), RouteReply, 5.0
+        )
         assert reply.ok and reply.error == "room_b"
 
         # malformed payloads first, then a good one: the peer must survive and count them
@@ -64,7 +71,12 @@ def test_request_to_nobody_times_out_with_one_line(router) -> None:
     bus, _ = router
     errors: list[str] = []
     done = threading.Event()
-    bus.request("test/nobody", RouteRequest(Pose2D(0, 0, 0)), RouteReply, 0.5,
-                lambda reply, err: (errors.append(err), done.set()))
+    bus.request(
+        "test/nobody",
+        RouteRequest(Pose2D(0, 0, 0)),
+        RouteReply,
+        0.5,
+        lambda reply, err: (errors.append(err), done.set()),
+    )
     assert done.wait(5)
     assert "no answer from test/nobody" in errors[0]

@@ -19,13 +19,17 @@ def samples() -> list[m.Msg]:
         m.Twist(1.5, 0.4, -0.2),
         m.Odometry(2.0, pose, 0.5, 0.1),
         m.PoseEstimate(2.0, pose, np.eye(3) * 0.01, lost=True),
-        m.PointCloud(3.0, "lidar", np.random.default_rng(0).normal(size=(1000, 3)).astype(np.float32)),
+        m.PointCloud(
+            3.0, "lidar", np.random.default_rng(0).normal(size=(1000, 3)).astype(np.float32)
+        ),
         m.Path(4.0, "route-1", "1", np.array([[0.0, 0.0], [1.0, 2.0]]), np.array([0.5, 0.0])),
         m.Clock(5.0, 250, 0.02, 1),
         m.Ack("controller", 250, 252),
         m.DoorState(6.0, "door_ab", m.DoorMode.OPEN),
         m.DoorRequest(6.0, "chair1", "door_ab", m.DoorMode.OPEN),
-        m.LiftState(7.0, "lift1", ["1", "2"], "1", "2", m.LiftDoor.CLOSED, m.LiftMotion.UP, 1, "s1"),
+        m.LiftState(
+            7.0, "lift1", ["1", "2"], "1", "2", m.LiftDoor.CLOSED, m.LiftMotion.UP, 1, "s1"
+        ),
         m.LiftRequest(7.0, "lift1", "s1", m.LiftRequestType.AGV_MODE, "2", m.LiftDoor.OPEN),
         m.RouteRequest(pose, None, "room_b"),
         m.RouteReply(False, None, "NO_PATH", "no way"),
@@ -74,11 +78,15 @@ BAD = {
     "a list": msgpack.packb([1, 2, 3]),
     "unknown tag": msgpack.packb({"t": "teleport", "v": 1, "d": {}}),
     "newer schema": msgpack.packb({"t": "twist", "v": 99, "d": {"stamp": 0.0, "v": 0.0, "w": 0.0}}),
-    "unknown field": msgpack.packb({"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": 0.0, "w": 0.0, "x": 1}}),
+    "unknown field": msgpack.packb(
+        {"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": 0.0, "w": 0.0, "x": 1}}
+    ),
     "missing field": msgpack.packb({"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": 0.0}}),
     "wrong type": msgpack.packb({"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": "fast", "w": 0.0}}),
     "nan": msgpack.packb({"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": math.nan, "w": 0.0}}),
-    "bool for number": msgpack.packb({"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": True, "w": 0.0}}),
+    "bool for number": msgpack.packb(
+        {"t": "twist", "v": 1, "d": {"stamp": 0.0, "v": True, "w": 0.0}}
+    ),
 }
 
 

@@ -17,7 +17,9 @@ def test_defaults_load() -> None:
 
 
 def test_overrides_apply_with_yaml_values() -> None:
-    cfg = config.load(None, ["sim.seed=7", "controller.lookahead_m=0.8", "transport.connect=[tcp/h:1]"])
+    cfg = config.load(
+        None, ["sim.seed=7", "controller.lookahead_m=0.8", "transport.connect=[tcp/h:1]"]
+    )
     assert cfg.sim.seed == 7 and cfg.controller.lookahead_m == 0.8
     assert cfg.transport.connect == ["tcp/h:1"]
 

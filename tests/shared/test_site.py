@@ -14,8 +14,15 @@ from tests.conftest import ROOT
 
 def write_map(folder: Path, pixels: np.ndarray, **meta) -> Path:
     Image.fromarray(pixels.astype(np.uint8)).save(folder / "m.pgm")
-    lines = {"image": "m.pgm", "resolution": 0.1, "origin": [1.0, 2.0, 0.0], "negate": 0,
-             "occupied_thresh": 0.65, "free_thresh": 0.196, **meta}
+    lines = {
+        "image": "m.pgm",
+        "resolution": 0.1,
+        "origin": [1.0, 2.0, 0.0],
+        "negate": 0,
+        "occupied_thresh": 0.65,
+        "free_thresh": 0.196,
+        **meta,
+    }
     text = "\n".join(f"{k}: {v}" for k, v in lines.items())
     (folder / "m.yaml").write_text(text + "\n")
     return folder / "m.yaml"

@@ -18,8 +18,10 @@ SITE = load_site(ROOT / "sites" / "two_rooms")
 
 def make(x: float = 2.0, y: float = 2.7, theta: float = 0.0, **over) -> Simulation:
     extra = [f"{k}={v}" for k, v in over.items()]
-    return Simulation(load(None, [f"sim.start.x={x}", f"sim.start.y={y}",
-                                  f"sim.start.theta={theta}", *extra]), SITE)
+    return Simulation(
+        load(None, [f"sim.start.x={x}", f"sim.start.y={y}", f"sim.start.theta={theta}", *extra]),
+        SITE,
+    )
 
 
 def test_merge_boxes_covers_exactly() -> None:
@@ -46,7 +48,9 @@ def range_ahead(sim: Simulation) -> float:
 
 def test_lidar_sees_a_wall_at_the_known_distance() -> None:
     # the dividing wall's face is at x = 6.1; the sensor is at x = 3.0 (noise sigma 1 cm)
-    assert range_ahead(make(x=3.0, y=1.0, **{"sim.lidar_noise_m": 0.01})) == pytest.approx(3.1, abs=0.03)
+    assert range_ahead(make(x=3.0, y=1.0, **{"sim.lidar_noise_m": 0.01})) == pytest.approx(
+        3.1, abs=0.03
+    )
     # through the open doorway it sees the far wall at x = 12.2
     assert range_ahead(make(x=3.0, y=2.7)) == pytest.approx(9.2, abs=0.03)
 

@@ -10,7 +10,9 @@ from services.controller.core import PathFollower
 from shared.config import ControllerConfig, RobotConfig
 
 
-def drive(follower: PathFollower, x: float, y: float, th: float, steps: int = 2000, dt: float = 0.04):
+def drive(
+    follower: PathFollower, x: float, y: float, th: float, steps: int = 2000, dt: float = 0.04
+):
     track = []
     cmd = None
     for _ in range(steps):

@@ -29,7 +29,10 @@ def test_demo_scenario_loads() -> None:
         ("site: x\nstart: {x: 0, y: 0}\ngoal: {place: a}\nspeed: 3\n", "unknown key 'speed'"),
         ("site: x\nstart: {x: 0, y: 0, z: 1}\ngoal: {place: a}\n", "sim.start.z: unknown key"),
         ("site: x\nstart: {x: 0, y: 0}\ngoal: {x: 1}\n", "goal: expected"),
-        ("site: x\nstart: {x: 0, y: 0}\ngoal: {place: a}\ntime_limit_s: -1\n", "time_limit_s: must be > 0"),
+        (
+            "site: x\nstart: {x: 0, y: 0}\ngoal: {place: a}\ntime_limit_s: -1\n",
+            "time_limit_s: must be > 0",
+        ),
     ],
 )
 def test_bad_scenarios(tmp_path: Path, text: str, message: str) -> None:
@@ -52,9 +55,19 @@ def test_recorder_phases_and_report() -> None:
     assert rep["success"] and rep["reason"] == "arrived"
     assert rep["path_length_m"] == 3.0 and rep["min_clearance_m"] == 0.25
     assert [(p["name"], p["start_s"], p["end_s"]) for p in rep["phases"]] == [
-        ("plan", 0.2, 0.4), ("follow", 0.4, 9.0)]
-    for key in ("success", "reason", "collisions", "min_clearance_m", "sim_time_s",
-                "wall_time_s", "path_length_m", "phases"):
+        ("plan", 0.2, 0.4),
+        ("follow", 0.4, 9.0),
+    ]
+    for key in (
+        "success",
+        "reason",
+        "collisions",
+        "min_clearance_m",
+        "sim_time_s",
+        "wall_time_s",
+        "path_length_m",
+        "phases",
+    ):
         assert key in rep
 
 
