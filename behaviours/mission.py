@@ -99,9 +99,10 @@ class ComputeRoute(_FleetBehaviour):
 class FollowPath(_FleetBehaviour):
     """Send ``/mission/path`` to the controller and wait until it reports arrival.
 
-    RUNNING while the controller follows; SUCCESS on ``arrived`` for this path; FAILURE if
-    the controller reports the pose stale or lost for too long is left to the timeout
-    above it. ``terminate`` on pre-emption stops the chair.
+    RUNNING while the controller follows; SUCCESS on ``arrived`` for this path. A controller
+    that reports ``idle`` without this path (it was restarted) gets the path again. Never
+    FAILURE itself: the timeout above it bounds the wait. ``terminate`` on pre-emption
+    stops the chair.
     """
 
     phase = "follow"
@@ -110,16 +111,25 @@ class FollowPath(_FleetBehaviour):
         super().__init__(name)
         self.bb.register_key("path", access=Access.READ)
         self.path_id = ""
+        self.sent_at = 0.0
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
         path: Path = self.bb.path
         self.path_id = path.path_id
+        self.sent_at = self.fleet.now()
         self.fleet.send_path(path)
         self.feedback_message = f"following {self.path_id}"
 
     def update(self) -> Status:
         status = self.fleet.follow_status()
+        restarted = (status is not None and status.state in ("idle", "no_pose")
+                     and status.path_id != self.path_id and status.stamp > self.sent_at)
+        if restarted:  # a restarted controller has lost the path: send it again
+            self.sent_at = self.fleet.now()
+            self.fleet.send_path(self.bb.path)
+            self.feedback_message = f"controller idle: resent {self.path_id}"
+            return Status.RUNNING
         if status is None or status.path_id != self.path_id:
             return Status.RUNNING
         self.feedback_message = (

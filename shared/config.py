@@ -300,3 +300,31 @@ def load(path: str | Path | None = None, overrides: list[str] = ()) -> FleetConf
     """Load the fleet config from ``path`` (defaults if None), then apply overrides."""
     data = read_yaml(path) if path else {}
     return from_dict(FleetConfig, apply_overrides(data, list(overrides)))
+
+
+def describe(cls: type = FleetConfig, prefix: str = "") -> list[tuple[str, str, str]]:
+    """(dotted key, type, default) for every leaf of the config, for docs/configuration.md."""
+    rows = []
+    hints = typing.get_type_hints(cls)
+    defaults = cls()
+    for f in dataclasses.fields(cls):
+        dotted = f"{prefix}{f.name}"
+        hint = hints[f.name]
+        if dataclasses.is_dataclass(hint):
+            rows.append((dotted, "section", hint.__doc__.strip().splitlines()[0]))
+            rows += describe(hint, dotted + ".")
+        else:
+            name = getattr(hint, "__name__", str(hint)) if typing.get_origin(hint) is None else str(hint)
+            rows.append((dotted, name, repr(getattr(defaults, f.name))))
+    return rows
+
+
+def markdown_table() -> str:
+    """The key table of docs/configuration.md (a test keeps the two equal)."""
+    lines = ["| key | type | default |", "|---|---|---|"]
+    for key, kind, default in describe():
+        if kind == "section":
+            lines.append(f"| **{key}** | | {default} |")
+        else:
+            lines.append(f"| `{key}` | {kind} | `{default}` |")
+    return "\n".join(lines)

@@ -118,7 +118,9 @@ class Navigator:
             self.fleet.now, self.cfg.plan_timeout_s, self.cfg.follow_timeout_s
         )
         self.tree = py_trees.trees.BehaviourTree(root)
-        self.tree.setup(timeout=5.0, fleet=self.fleet)
+        # setup only stores the fleet handle (never blocks); a finite timeout would need
+        # signals, which only work on the main thread, and goals arrive on Zenoh threads
+        self.tree.setup(timeout=py_trees.common.Duration.INFINITE, fleet=self.fleet)
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
         self.svc.log.info("mission %s to %s", msg.goal_id, target)
         self.status = NavStatus(self.fleet.now(), msg.goal_id, "running")

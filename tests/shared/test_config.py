@@ -53,3 +53,10 @@ def test_missing_and_malformed_files(tmp_path: Path) -> None:
     listy.write_text("- 1\n")
     with pytest.raises(ConfigError, match="mapping at the top level"):
         config.load(listy)
+
+
+def test_configuration_doc_lists_every_key() -> None:
+    from tests.conftest import ROOT
+
+    doc = (ROOT / "docs" / "configuration.md").read_text()
+    assert config.markdown_table() in doc, "regenerate the table in docs/configuration.md"

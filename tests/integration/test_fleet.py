@@ -1,0 +1,155 @@
+"""End to end: the whole fleet as separate processes over a real router, in lockstep.
+
+These start real service processes (pybullet simulator, localisation, planner,
+controller, navigator) and run on simulation time.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import threading
+import time
+
+import pytest
+
+from services.launcher.fleet import services_for
+from services.launcher.node import Supervisor, wait_ready
+from services.mission.core import load_scenario
+from services.mission.node import MissionRun
+from shared.messages import NavGoal, Odometry, Twist
+from shared.topics import Keys
+from tests.conftest import PYTHON, ROOT
+
+pytestmark = pytest.mark.e2e
+DEMO = ROOT / "scenarios" / "demo.yaml"
+
+
+class Capture:
+    """Collects process output in memory (the supervisor prefixes each line)."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def write(self, text: str) -> None:
+        self.lines.append(text)
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+    def text(self) -> str:
+        return "".join(self.lines)
+
+
+def run_demo() -> dict:
+    out = Capture()
+    report = MissionRun(load_scenario(DEMO), out=out, fleet_output=out).run()
+    assert report["success"], (report, out.text()[-3000:])
+    return report
+
+
+def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly() -> None:
+    first = run_demo()
+    assert first["collisions"] == 0
+    assert first["min_clearance_m"] > 0.05
+    assert [p["name"] for p in first["phases"]] == ["plan", "follow"]
+    assert 7.5 < first["path_length_m"] < 11.0
+    assert first["sim_time_s"] < 60
+    # lockstep: a second run gives the same figures to the millisecond and millimetre,
+    # whatever the machine's load (only the wall time differs)
+    second = run_demo()
+    for key in ("sim_time_s", "path_length_m", "min_clearance_m", "phases"):
+        assert first[key] == second[key], key
+
+
+@pytest.fixture
+def fleet(router, tmp_path):
+    """The sim profile started by the supervisor, in lockstep, as fast as possible."""
+    bus, endpoint = router
+    scenario = load_scenario(DEMO)
+    cfg_path = tmp_path / "fleet.yaml"
+    import yaml
+
+    from shared import config as config_mod
+
+    cfg = scenario.config
+    cfg.sim.start_after = [s.name for s in services_for("sim") if s.name != "sim"]
+    cfg_path.write_text(yaml.safe_dump(config_mod.to_dict(cfg)))
+    out = Capture()
+    specs = services_for("sim")
+    sup = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
+    sup.start()
+    keys = Keys(cfg.robot.name)
+    try:
+        missing = wait_ready(bus, keys, [s.name for s in specs], 60)
+        assert not missing, out.text()
+        yield bus, endpoint, sup, keys, scenario, out
+    finally:
+        sup.stop()
+
+
+def test_topic_echo_shows_live_odometry(fleet) -> None:
+    bus, endpoint, _sup, keys, _scenario, _out = fleet
+    proc = subprocess.run(
+        [PYTHON, "-m", "services.cli", "topic", "echo", keys.odom, "--count", "3",
+         "--duration", "20", "--connect", endpoint],
+        cwd=ROOT, capture_output=True, text=True, timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.count(f"--- {keys.odom}") == 3
+    assert "type: odometry" in proc.stdout and "pose: {x=" in proc.stdout
+
+
+def test_killed_controller_stops_the_chair_and_is_restarted(fleet) -> None:
+    bus, _endpoint, sup, keys, scenario, out = fleet
+    lock = threading.Lock()
+    odom: list[Odometry] = []
+    cmds: list[Twist] = []
+
+    def on_odom(msg: Odometry) -> None:
+        with lock:
+            odom.append(msg)
+
+    def on_cmd(msg: Twist) -> None:
+        with lock:
+            cmds.append(msg)
+
+    bus.subscribe(keys.odom, Odometry, on_odom)
+    bus.subscribe(keys.cmd_vel, Twist, on_cmd)
+    bus.publish(keys.nav_goal, NavGoal(0.0, "kill-test", None, scenario.place))
+
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        with lock:
+            if odom and odom[-1].v > 0.3:
+                break
+        time.sleep(0.01)
+    else:
+        pytest.fail("the chair never got moving:\n" + out.text()[-3000:])
+
+    old_pid = sup.pid("controller")
+    os.kill(old_pid, signal.SIGKILL)
+    time.sleep(0.3)
+    with lock:
+        last_cmd = max(c.stamp for c in cmds)
+    # the simulator runs on: wait until the chair has stopped
+    deadline = time.monotonic() + 30
+    stopped_at = None
+    while time.monotonic() < deadline and stopped_at is None:
+        with lock:
+            stopped_at = next((o.stamp for o in odom if o.stamp > last_cmd and o.v == 0.0), None)
+        time.sleep(0.05)
+    assert stopped_at is not None, "chair did not stop"
+    assert stopped_at - last_cmd <= 0.5, (last_cmd, stopped_at)
+    print(f"chair stopped {stopped_at - last_cmd:.3f} s (sim) after the last command")
+
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not (sup.restarts("controller") and sup.pid("controller")):
+        time.sleep(0.1)
+    assert sup.restarts("controller") == 1
+    assert sup.pid("controller") not in (None, old_pid)
+    assert "controller exited with code -9; restarting" in out.text()
