@@ -123,8 +123,12 @@ class FollowPath(_FleetBehaviour):
 
     def update(self) -> Status:
         status = self.fleet.follow_status()
-        restarted = (status is not None and status.state in ("idle", "no_pose")
-                     and status.path_id != self.path_id and status.stamp > self.sent_at)
+        restarted = (
+            status is not None
+            and status.state in ("idle", "no_pose")
+            and status.path_id != self.path_id
+            and status.stamp > self.sent_at
+        )
         if restarted:  # a restarted controller has lost the path: send it again
             self.sent_at = self.fleet.now()
             self.fleet.send_path(self.bb.path)

@@ -76,8 +76,9 @@ class TransportConfig:
 
 @dataclass
 class StartPose:
-    """Where the chair starts in the simulator."""
+    """Where the chair starts: a named place of the site, or (when ``place`` is empty) a pose."""
 
+    place: str = "room_a"
     x: float = 0.0
     y: float = 0.0
     theta: float = 0.0
@@ -247,6 +248,8 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if "=" not in text:
         raise ConfigError(f"override {text!r}: expected KEY=VALUE, e.g. sim.seed=3")
     key, raw = text.split("=", 1)
+    if not raw.strip():
+        return key.strip().split("."), ""  # `--set sim.start.place=` clears a text value
     try:
         value = yaml.safe_load(raw)
     except yaml.YAMLError as exc:
@@ -314,7 +317,11 @@ def describe(cls: type = FleetConfig, prefix: str = "") -> list[tuple[str, str, 
             rows.append((dotted, "section", hint.__doc__.strip().splitlines()[0]))
             rows += describe(hint, dotted + ".")
         else:
-            name = getattr(hint, "__name__", str(hint)) if typing.get_origin(hint) is None else str(hint)
+            name = (
+                getattr(hint, "__name__", str(hint))
+                if typing.get_origin(hint) is None
+                else str(hint)
+            )
             rows.append((dotted, name, repr(getattr(defaults, f.name))))
     return rows
 

@@ -114,6 +114,15 @@ class Site:
             )
         return self.floors[name]
 
+    def start_pose(
+        self, place: str, x: float, y: float, theta: float, floor: str
+    ) -> tuple[float, float, float, str]:
+        """(x, y, theta, floor) of the named ``place``, or of the given pose if it is empty."""
+        if place:
+            p = self.place(place)
+            return p.x, p.y, p.theta, p.floor
+        return x, y, theta, self.floor(floor).name
+
     def place(self, name: str) -> Place:
         if name not in self.places:
             known = ", ".join(self.places) or "none"

@@ -6,12 +6,20 @@ subscribe, query and liveliness helpers that encode/decode wheelnav messages. A
 malformed payload never reaches a callback: the bus logs one line naming the key and
 the fault, counts it in :attr:`Bus.bad_messages`, and carries on. An exception raised in
 a callback is logged and counted the same way; the subscriber keeps running.
+
+Ordering: zenoh-python runs each subscriber's callbacks on a thread of its own, which
+loses the order in which samples of different keys arrived (a pose published before a
+clock tick could be handled after it). The bus therefore only enqueues on Zenoh's
+network thread and delivers everything (samples, queries, replies, liveliness changes)
+from one dispatcher thread, in arrival order, holding :attr:`Bus.lock`. Lockstep
+determinism rests on this.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import queue
 import threading
 from collections import Counter
 from collections.abc import Callable
@@ -52,18 +60,43 @@ def open_session(transport: TransportConfig) -> zenoh.Session:
 
 
 class Bus:
-    """Typed wheelnav endpoints over one Zenoh session."""
+    """Typed wheelnav endpoints over one Zenoh session, delivered in arrival order."""
 
-    def __init__(
-        self, session: zenoh.Session, name: str, lock: threading.RLock | None = None
-    ) -> None:
+    def __init__(self, session: zenoh.Session, name: str) -> None:
         self.session = session
         self.name = name
-        self.lock = lock or threading.RLock()
+        self.lock = threading.RLock()
         self.bad_messages: Counter[str] = Counter()
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._keep: list[Any] = []
-        self._lock = threading.Lock()
+        self._count_lock = threading.Lock()
+        self._inbox: queue.SimpleQueue = queue.SimpleQueue()
+        self._dispatcher = threading.Thread(target=self._dispatch, name=f"{name}-bus", daemon=True)
+        self._dispatcher.start()
+
+    # -- delivery -------------------------------------------------------------------------
+
+    def _handler(
+        self, deliver: Callable[[Any], None], on_drop: Callable[[], None] | None = None
+    ) -> zenoh.handlers.Callback:
+        """A Zenoh callback that only queues the item (on the network thread, in order)."""
+        drop = (lambda: self._inbox.put((on_drop, ()))) if on_drop else None
+        return zenoh.handlers.Callback(
+            lambda item: self._inbox.put((deliver, (item,))), drop, indirect=False
+        )
+
+    def _dispatch(self) -> None:
+        while True:
+            job = self._inbox.get()
+            if job is None:
+                return
+            fn, args = job
+            try:
+                with self.lock:
+                    fn(*args)
+            except Exception as exc:  # a handler bug must not stop delivery
+                self._count_bad(self.name, f"handler failed: {type(exc).__name__}: {exc}")
+                log.debug("handler traceback", exc_info=True)
 
     # -- publish / subscribe ------------------------------------------------------------
 
@@ -78,7 +111,7 @@ class Bus:
     def subscribe(self, key: str, msg_type: type[T] | None, callback: Callable[[T], None]) -> None:
         """Call ``callback(msg)`` per valid message on ``key`` (any type if ``msg_type`` None)."""
 
-        def on_sample(sample: zenoh.Sample) -> None:
+        def deliver(sample: zenoh.Sample) -> None:
             if sample.kind != zenoh.SampleKind.PUT:
                 return
             topic = str(sample.key_expr)
@@ -88,25 +121,24 @@ class Bus:
                 self._count_bad(topic, str(exc))
                 return
             try:
-                with self.lock:
-                    callback(msg)
+                callback(msg)
             except Exception as exc:  # a bad message must not kill the subscriber
                 self._count_bad(topic, f"handler failed: {type(exc).__name__}: {exc}")
                 log.debug("handler traceback", exc_info=True)
 
-        self._keep.append(self.session.declare_subscriber(key, on_sample))
+        self._keep.append(self.session.declare_subscriber(key, self._handler(deliver)))
 
     def subscribe_raw(self, key: str, callback: Callable[[str, bytes], None]) -> None:
         """Call ``callback(key, payload)`` for every sample (tools that show any topic)."""
 
-        def on_sample(sample: zenoh.Sample) -> None:
+        def deliver(sample: zenoh.Sample) -> None:
             if sample.kind == zenoh.SampleKind.PUT:
                 callback(str(sample.key_expr), sample.payload.to_bytes())
 
-        self._keep.append(self.session.declare_subscriber(key, on_sample))
+        self._keep.append(self.session.declare_subscriber(key, self._handler(deliver)))
 
     def _count_bad(self, topic: str, why: str) -> None:
-        with self._lock:
+        with self._count_lock:
             self.bad_messages[topic] += 1
             n = self.bad_messages[topic]
         if n <= 10 or n % 100 == 0:
@@ -117,10 +149,16 @@ class Bus:
     def serve(self, key: str, req_type: type[T], handler: Callable[[T], Msg]) -> None:
         """Answer queries on ``key``: decode the request, reply with ``handler(request)``.
 
-        A malformed request is answered with an error reply naming the fault.
+        A malformed request is answered with an error reply naming the fault. Queries are
+        answered on Zenoh's own callback thread (a query cannot be answered once the
+        network thread's callback has returned), holding :attr:`lock`.
         """
 
-        def on_query(query: zenoh.Query) -> None:
+        def answer(query: zenoh.Query) -> None:
+            with self.lock:
+                deliver(query)
+
+        def deliver(query: zenoh.Query) -> None:
             try:
                 payload = query.payload.to_bytes() if query.payload is not None else b""
                 request = decode(payload, req_type)
@@ -129,15 +167,14 @@ class Bus:
                 query.reply_err(str(exc).encode())
                 return
             try:
-                with self.lock:
-                    reply = handler(request)
+                reply = handler(request)
             except Exception as exc:
                 self._count_bad(key, f"handler failed: {type(exc).__name__}: {exc}")
                 query.reply_err(f"{type(exc).__name__}: {exc}".encode())
                 return
             query.reply(key, encode(reply))
 
-        self._keep.append(self.session.declare_queryable(key, on_query, complete=True))
+        self._keep.append(self.session.declare_queryable(key, answer, complete=True))
 
     def request(
         self,
@@ -146,47 +183,43 @@ class Bus:
         reply_type: type[R],
         timeout_s: float,
         on_done: Callable[[R | None, str], None],
-        locked: bool = True,
     ) -> None:
-        """Send a query without blocking; ``on_done(reply, error)`` is called exactly once.
+        """Send a query without blocking; ``on_done(reply, error)`` is called exactly once,
+        from the dispatcher (so in order with the samples around it).
 
         ``error`` is empty on success; on timeout, no responder or a bad reply, ``reply`` is
-        None and ``error`` says why. ``on_done`` runs under the bus lock unless ``locked``
-        is False.
+        None and ``error`` says why.
         """
         state = {"done": False}
-        lock = threading.Lock()
 
         def finish(reply: R | None, error: str) -> None:
-            with lock:
-                if state["done"]:
-                    return
+            if not state["done"]:
                 state["done"] = True
-            if locked:
-                with self.lock:
-                    on_done(reply, error)
-            else:
                 on_done(reply, error)
 
         def on_reply(reply: zenoh.Reply) -> None:
-            if reply.ok is not None:
-                try:
-                    answer = decode(reply.ok.payload.to_bytes(), reply_type)
-                except DecodeError as exc:
-                    finish(None, f"bad reply from {key}: {exc}")
-                    return
-                finish(answer, "")
-            else:
+            if reply.ok is None:
                 finish(None, f"{key} answered an error: {reply.err.payload.to_string()}")
+                return
+            try:
+                answer = decode(reply.ok.payload.to_bytes(), reply_type)
+            except DecodeError as exc:
+                finish(None, f"bad reply from {key}: {exc}")
+                return
+            finish(answer, "")
 
         def on_end() -> None:
             finish(None, f"no answer from {key} within {timeout_s:.1f} s")
 
-        handler = zenoh.handlers.Callback(on_reply, on_end)
-        self.session.get(key, handler, payload=encode(msg), timeout=timeout_s)
+        self.session.get(
+            key, self._handler(on_reply, on_end), payload=encode(msg), timeout=timeout_s
+        )
 
     def call(self, key: str, msg: Msg, reply_type: type[R], timeout_s: float) -> R:
-        """Blocking query; raises TimeoutError/RuntimeError with one line on failure."""
+        """Blocking query; raises TimeoutError with one line on failure.
+
+        Never call it from a bus callback: the answer is delivered by the same dispatcher.
+        """
         done = threading.Event()
         result: dict[str, Any] = {}
 
@@ -194,7 +227,7 @@ class Bus:
             result.update(reply=reply, error=error)
             done.set()
 
-        self.request(key, msg, reply_type, timeout_s, on_done, locked=False)
+        self.request(key, msg, reply_type, timeout_s, on_done)
         if not done.wait(timeout_s + 1.0) or result["reply"] is None:
             raise TimeoutError(result.get("error") or f"no answer from {key}")
         return result["reply"]
@@ -209,12 +242,13 @@ class Bus:
         """Call ``callback(key, alive)`` when a token on ``pattern`` appears or goes (and for
         the tokens already there)."""
 
-        def on_sample(sample: zenoh.Sample) -> None:
-            with self.lock:
-                callback(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
+        def deliver(sample: zenoh.Sample) -> None:
+            callback(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
 
         self._keep.append(
-            self.session.liveliness().declare_subscriber(pattern, on_sample, history=True)
+            self.session.liveliness().declare_subscriber(
+                pattern, self._handler(deliver), history=True
+            )
         )
 
     def alive(self, pattern: str, timeout_s: float = 1.0) -> list[str]:
@@ -223,7 +257,10 @@ class Bus:
         return sorted(str(r.ok.key_expr) for r in replies if r.ok is not None)
 
     def close(self) -> None:
-        """Undeclare everything and close the session."""
+        """Undeclare everything, close the session and stop the dispatcher."""
         self._keep.clear()
         self._publishers.clear()
         self.session.close()
+        self._inbox.put(None)
+        if threading.current_thread() is not self._dispatcher:
+            self._dispatcher.join(timeout=2.0)

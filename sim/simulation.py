@@ -39,10 +39,11 @@ class Simulation:
     def __init__(self, cfg: FleetConfig, site: Site) -> None:
         sim, robot = cfg.sim, cfg.robot
         self.cfg = cfg
-        self.floor = site.floor(sim.start.floor).name
+        s = sim.start
+        x, y, theta, self.floor = site.start_pose(s.place, s.x, s.y, s.theta, s.floor)
         self.world = World(site.floor(self.floor).map, cfg.planner.unknown_is_occupied)
         self.rng = np.random.default_rng(sim.seed)
-        start = ChairState(sim.start.x, sim.start.y, sim.start.theta)
+        start = ChairState(x, y, theta)
         self.chair = Chair(robot, start, sim.motor_lag_s, sim.watchdog_s)
         self.lidar = PlanarLidar(
             self.world.client,

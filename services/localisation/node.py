@@ -10,6 +10,7 @@ from __future__ import annotations
 from services.localisation.core import OdometryLocaliser
 from shared.messages import Clock, Odometry, Pose2D, PoseEstimate
 from shared.service import Service
+from shared.site import SiteError, load_site
 
 NAME = "localisation"
 
@@ -17,8 +18,14 @@ NAME = "localisation"
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
-        start = cfg.sim.start
-        loc = OdometryLocaliser(start.x, start.y, start.theta, start.floor)
+        try:
+            s = cfg.sim.start
+            loc = OdometryLocaliser(
+                *load_site(cfg.site).start_pose(s.place, s.x, s.y, s.theta, s.floor)
+            )
+        except SiteError as exc:
+            svc.log.error("cannot start: %s", exc)
+            raise SystemExit(2) from None
         latest: dict[str, Odometry] = {}
 
         def on_odom(msg: Odometry) -> None:

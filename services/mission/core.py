@@ -43,6 +43,9 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     for key in ("site", "start", "goal"):
         if key not in data:
             raise ConfigError(f"{path}: missing key {key!r}")
+    start = data["start"]
+    if isinstance(start, dict) and "place" not in start:
+        start = {**start, "place": ""}  # a pose given: it replaces the default start place
     site = Path(data["site"])
     if not site.is_absolute():
         site = (path.parent / site).resolve()
@@ -51,7 +54,7 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
         {
             "site": str(site),
             "sim": {
-                "start": data["start"],
+                "start": start,
                 "seed": data.get("seed", 0),
                 "realtime_factor": 0.0,
                 "start_after": ["localisation", "planner", "controller", "navigator", "mission"],
@@ -120,20 +123,26 @@ class Recorder:
         if msg.state in TERMINAL:
             if current is not None:
                 current.end_s = msg.stamp
-            self.state, self.reason = msg.state, msg.reason
+            self.state, self.reason, self.sim_time_s = msg.state, msg.reason, msg.stamp
         elif self.state == "pending":
             self.state = "running"
 
     def on_sim_status(self, msg: SimStatus) -> None:
+        if self.finished:
+            return  # the report covers the mission, not the shutdown after it
         self.collisions = max(self.collisions, msg.collisions)
         self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
 
     def on_truth(self, x: float, y: float) -> None:
+        if self.finished:
+            return
         if self._last_xy is not None:
             self.path_length_m += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
         self._last_xy = (x, y)
 
     def on_time(self, stamp: float, limit_s: float) -> None:
+        if self.finished:
+            return
         self.sim_time_s = stamp
         if stamp >= limit_s and not self.finished:
             self.state = "timeout"

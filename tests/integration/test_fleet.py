@@ -6,6 +6,7 @@ controller, navigator) and run on simulation time.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -17,13 +18,85 @@ import pytest
 from services.launcher.fleet import services_for
 from services.launcher.node import Supervisor, wait_ready
 from services.mission.core import load_scenario
-from services.mission.node import MissionRun
+from services.mission.node import MissionRun, free_port
 from shared.messages import NavGoal, Odometry, Twist
 from shared.topics import Keys
 from tests.conftest import PYTHON, ROOT
 
 pytestmark = pytest.mark.e2e
 DEMO = ROOT / "scenarios" / "demo.yaml"
+
+
+def wheelnav(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [PYTHON, "-m", "services.cli", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    up = subprocess.Popen(
+        [PYTHON, "-m", "services.cli", "up", "--listen", endpoint],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(up.stdout), daemon=True)
+    reader.start()
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any("fleet up" in ln for ln in lines):
+            assert up.poll() is None, "".join(lines)
+            time.sleep(0.1)
+        assert any("fleet up" in ln for ln in lines), "".join(lines)
+        keys = Keys("chair1")
+
+        echo = wheelnav(
+            "topic", "echo", keys.odom, "--count", "3", "--duration", "20", "--connect", endpoint
+        )
+        assert echo.returncode == 0, echo.stderr
+        assert echo.stdout.count(f"--- {keys.odom}") == 3
+        assert "type: odometry" in echo.stdout and "pose: {x=" in echo.stdout
+
+        as_json = wheelnav(
+            "topic",
+            "echo",
+            keys.odom,
+            "--count",
+            "1",
+            "--json",
+            "--duration",
+            "20",
+            "--connect",
+            endpoint,
+        )
+        record = json.loads(as_json.stdout.splitlines()[0])
+        assert record["key"] == keys.odom and record["type"] == "odometry"
+
+        listing = wheelnav("topic", "list", "--duration", "2", "--connect", endpoint)
+        assert listing.returncode == 0, listing.stderr
+        for name in ("odom", "scan", "clock", "pose"):
+            assert getattr(keys, name) in listing.stdout
+        assert "wheelnav/chair1/alive/planner" in listing.stdout
+
+        hz = wheelnav("topic", "hz", keys.odom, "--duration", "3", "--connect", endpoint)
+        rates = [float(ln.split()[1]) for ln in hz.stdout.splitlines() if " Hz " in ln]
+        assert rates and 35 < rates[-1] < 65, hz.stdout  # 50 Hz odometry at real time
+    finally:
+        up.send_signal(signal.SIGINT)
+        code = up.wait(timeout=30)
+        reader.join(timeout=5)
+    text = "".join(lines)
+    assert code == 0, text
+    assert "stopping" in text
+    for name in ("sim", "planner", "controller", "navigator", "localisation"):
+        assert f"wheelnav.{name}: stopped" in text, name
 
 
 class Capture:
@@ -92,18 +165,6 @@ def fleet(router, tmp_path):
         sup.stop()
 
 
-def test_topic_echo_shows_live_odometry(fleet) -> None:
-    bus, endpoint, _sup, keys, _scenario, _out = fleet
-    proc = subprocess.run(
-        [PYTHON, "-m", "services.cli", "topic", "echo", keys.odom, "--count", "3",
-         "--duration", "20", "--connect", endpoint],
-        cwd=ROOT, capture_output=True, text=True, timeout=60,
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.count(f"--- {keys.odom}") == 3
-    assert "type: odometry" in proc.stdout and "pose: {x=" in proc.stdout
-
-
 def test_killed_controller_stops_the_chair_and_is_restarted(fleet) -> None:
     bus, _endpoint, sup, keys, scenario, out = fleet
     lock = threading.Lock()
@@ -148,7 +209,9 @@ def test_killed_controller_stops_the_chair_and_is_restarted(fleet) -> None:
     print(f"chair stopped {stopped_at - last_cmd:.3f} s (sim) after the last command")
 
     deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and not (sup.restarts("controller") and sup.pid("controller")):
+    while time.monotonic() < deadline and not (
+        sup.restarts("controller") and sup.pid("controller")
+    ):
         time.sleep(0.1)
     assert sup.restarts("controller") == 1
     assert sup.pid("controller") not in (None, old_pid)

@@ -19,7 +19,16 @@ SITE = load_site(ROOT / "sites" / "two_rooms")
 def make(x: float = 2.0, y: float = 2.7, theta: float = 0.0, **over) -> Simulation:
     extra = [f"{k}={v}" for k, v in over.items()]
     return Simulation(
-        load(None, [f"sim.start.x={x}", f"sim.start.y={y}", f"sim.start.theta={theta}", *extra]),
+        load(
+            None,
+            [
+                "sim.start.place=",
+                f"sim.start.x={x}",
+                f"sim.start.y={y}",
+                f"sim.start.theta={theta}",
+                *extra,
+            ],
+        ),
         SITE,
     )
 
