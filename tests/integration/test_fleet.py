@@ -88,6 +88,19 @@ def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
         hz = wheelnav("topic", "hz", keys.odom, "--duration", "3", "--connect", endpoint)
         rates = [float(ln.split()[1]) for ln in hz.stdout.splitlines() if " Hz " in ln]
         assert rates and 35 < rates[-1] < 65, hz.stdout  # 50 Hz odometry at real time
+
+        # garbage on the keys services listen to: logged and counted, nobody dies
+        from shared.config import TransportConfig
+        from shared.transport import Bus, open_session
+
+        poke = Bus(open_session(TransportConfig(connect=[endpoint])), "poke")
+        for key in (keys.cmd_vel, keys.nav_goal, keys.path, keys.pose, keys.clock):
+            poke.session.put(key, b"\x92garbage")
+        poke.close()
+        time.sleep(1.0)
+        alive = wheelnav("topic", "list", "--duration", "1", "--connect", endpoint)
+        for name in ("sim", "planner", "controller", "navigator", "localisation"):
+            assert f"wheelnav/chair1/alive/{name}" in alive.stdout, name
     finally:
         up.send_signal(signal.SIGINT)
         code = up.wait(timeout=30)
@@ -97,6 +110,8 @@ def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
     assert "stopping" in text
     for name in ("sim", "planner", "controller", "navigator", "localisation"):
         assert f"wheelnav.{name}: stopped" in text, name
+    assert "dropped bad message on wheelnav/chair1/cmd_vel" in text
+    assert "Traceback" not in text
 
 
 class Capture:
@@ -123,6 +138,21 @@ def run_demo() -> dict:
     report = MissionRun(load_scenario(DEMO), out=out, fleet_output=out).run()
     assert report["success"], (report, out.text()[-3000:])
     return report
+
+
+def test_goal_inside_a_wall_fails_cleanly_with_the_planners_reason(tmp_path) -> None:
+    scenario = tmp_path / "wall.yaml"
+    scenario.write_text(
+        f"site: {ROOT / 'sites' / 'two_rooms'}\n"
+        "time_limit_s: 20\nstart: {place: room_a}\n"
+        "goal: {x: 6.2, y: 1.0, floor: '1'}\n"  # inside the dividing wall
+    )
+    out = Capture()
+    report = MissionRun(load_scenario(scenario), out=out, fleet_output=out).run()
+    assert not report["success"] and report["state"] == "failed"
+    assert "GOAL_OCCUPIED" in report["reason"] and "inside a wall" in report["reason"]
+    assert report["collisions"] == 0 and report["path_length_m"] == 0.0
+    assert "Traceback" not in out.text()
 
 
 def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly() -> None:
