@@ -19,10 +19,11 @@ class ServiceSpec:
     module: str
     profiles: tuple[str, ...]
     doc: str
+    args: tuple[str, ...] = ()
 
     def command(self, config: str, connect: str) -> list[str]:
         """The command line that starts it (the same locally and in a container)."""
-        return ["python", "-m", self.module, "--config", config, "--connect", connect]
+        return ["python", "-m", self.module, "--config", config, "--connect", connect, *self.args]
 
 
 SERVICES: tuple[ServiceSpec, ...] = (
@@ -47,6 +48,11 @@ SERVICES: tuple[ServiceSpec, ...] = (
     ),
 )
 PROFILES = ("sim", "hardware")
+
+
+def viz_recorder(rrd_path: str) -> ServiceSpec:
+    """The optional rerun recorder, added by ``wheelnav mission --rrd`` and ``up --rrd``."""
+    return ServiceSpec("viz", "services.viz.node", (), "rerun recording", ("--save", rrd_path))
 
 
 def services_for(profile: str) -> list[ServiceSpec]:

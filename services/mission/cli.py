@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from services.mission.core import load_scenario
 from services.mission.node import MissionRun, format_report, write_report
@@ -26,6 +27,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         dest="overrides",
         help="override one fleet config value (repeatable)",
     )
+    p.add_argument("--rrd", metavar="FILE", help="record the run for the rerun viewer")
     p.add_argument("--quiet", action="store_true", help="only print the report")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(run=run)
@@ -33,7 +35,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, args.overrides)
-    report = MissionRun(scenario, quiet=args.quiet).run()
+    rrd = str(Path(args.rrd).resolve()) if args.rrd else None
+    report = MissionRun(scenario, quiet=args.quiet, rrd=rrd).run()
     if args.report:
         write_report(report, args.report)
     print(json.dumps(report, indent=2) if args.json else format_report(report))

@@ -19,7 +19,7 @@ from typing import Any, TextIO
 
 import yaml
 
-from services.launcher.fleet import services_for
+from services.launcher.fleet import services_for, viz_recorder
 from services.launcher.node import Supervisor, open_router, wait_ready
 from services.mission.core import Recorder, Scenario
 from shared import config as config_mod
@@ -48,6 +48,7 @@ class MissionRun:
         out: TextIO = sys.stdout,
         quiet: bool = False,
         fleet_output: TextIO | None = None,
+        rrd: str | None = None,
     ) -> None:
         self.scenario = scenario
         self.out = out
@@ -58,6 +59,7 @@ class MissionRun:
         self.done = threading.Event()
         self.port = free_port()
         self.fleet_output = fleet_output
+        self.rrd = rrd
         self.supervisor: Supervisor | None = None
         self._goal_sent = False
         self._last_progress = -PROGRESS_EVERY_S
@@ -74,7 +76,7 @@ class MissionRun:
             cfg_path.write_text(yaml.safe_dump(config_mod.to_dict(cfg), sort_keys=False))
             bus = open_router(endpoint)
             self._wire(bus)
-            specs = services_for("sim")
+            specs = services_for("sim") + ([viz_recorder(self.rrd)] if self.rrd else [])
             out = self.fleet_output or (_Null() if self.quiet else self.out)
             self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
             self._say(f"scenario {self.scenario.name}: fleet starting on {endpoint}")

@@ -12,6 +12,7 @@ import signal
 import subprocess
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -133,9 +134,9 @@ class Capture:
         return "".join(self.lines)
 
 
-def run_demo() -> dict:
+def run_demo(rrd: str | None = None) -> dict:
     out = Capture()
-    report = MissionRun(load_scenario(DEMO), out=out, fleet_output=out).run()
+    report = MissionRun(load_scenario(DEMO), out=out, fleet_output=out, rrd=rrd).run()
     assert report["success"], (report, out.text()[-3000:])
     return report
 
@@ -155,7 +156,7 @@ def test_goal_inside_a_wall_fails_cleanly_with_the_planners_reason(tmp_path) -> 
     assert "Traceback" not in out.text()
 
 
-def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly() -> None:
+def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None:
     first = run_demo()
     assert first["collisions"] == 0
     assert first["min_clearance_m"] > 0.05
@@ -164,9 +165,15 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly() -> None:
     assert first["sim_time_s"] < 60
     # lockstep: a second run gives the same figures to the millisecond and millimetre,
     # whatever the machine's load (only the wall time differs)
-    second = run_demo()
+    # the second run also records for rerun: the extra process must not change the result
+    rrd = tmp_path / "demo.rrd"
+    second = run_demo(str(rrd))
     for key in ("sim_time_s", "path_length_m", "min_clearance_m", "phases"):
         assert first[key] == second[key], key
+    shown = subprocess.run([str(Path(PYTHON).parent / "rerun"), "rrd", "print", str(rrd)],
+                           capture_output=True, text=True, timeout=60).stdout
+    for entity in ("world/map", "world/path", "world/chair/pose", "world/chair/scan", "status/nav"):
+        assert entity in shown, entity
 
 
 @pytest.fixture
