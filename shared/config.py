@@ -92,7 +92,7 @@ class SimConfig:
     dt: float = field(default=0.02, metadata=check(_positive))
     seed: int = 0
     lockstep: bool = True
-    lockstep_timeout_s: float = field(default=0.25, metadata=check(_positive))
+    lockstep_timeout_s: float = field(default=5.0, metadata=check(_positive))
     lockstep_stages: list[list[str]] = field(
         default_factory=lambda: [["localisation", "mission"], ["controller"], ["navigator"]]
     )

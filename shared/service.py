@@ -2,11 +2,12 @@
 
 It parses the shared flags (config file, overrides, robot, transport), loads and checks
 the fleet config, sets up logging, opens the Zenoh session, holds the service's
-liveliness token and turns SIGTERM/SIGINT into a clean stop. A node module does::
+liveliness token (declared by :meth:`Service.ready`, once the service can answer) and
+turns SIGTERM/SIGINT into a clean stop. A node module does::
 
     with Service("planner", description=__doc__) as svc:
-        ...declare endpoints on svc.bus with keys from svc.keys...
-        svc.wait()
+        ...slow set-up, then declare endpoints on svc.bus with keys from svc.keys...
+        svc.wait()   # announces the service, then blocks
 
 Bad configuration ends the process with one line on stderr and exit code 2.
 """
@@ -106,6 +107,7 @@ class Service:
         self.keys = Keys(self.cfg.robot.name)
         self.stop_event = threading.Event()
         self.bus: Bus | None = None
+        self._ready = False
 
     def __enter__(self) -> Service:
         for sig in (signal.SIGTERM, signal.SIGINT):
@@ -116,10 +118,21 @@ class Service:
             self.log.error("%s", exc)
             raise SystemExit(1) from None
         self.bus = Bus(session, self.name)
+        return self
+
+    def ready(self) -> None:
+        """Announce the service (liveliness token) once its endpoints are declared.
+
+        Others wait for this token before relying on the service, so it must come after
+        the slow start-up work (site loading, JIT compilation) and the declarations.
+        """
+        if self._ready:
+            return
+        assert self.bus is not None
         alive_key = self.keys.key("alive", service=self.name)
         self.bus.declare_alive(alive_key)
-        self.log.info("up as %s (robot %s)", alive_key, self.cfg.robot.name)
-        return self
+        self._ready = True
+        self.log.info("ready: %s (robot %s)", alive_key, self.cfg.robot.name)
 
     def __exit__(self, *exc: object) -> None:
         if self.bus is not None:
@@ -132,7 +145,8 @@ class Service:
         return key
 
     def wait(self) -> None:
-        """Block until SIGTERM/SIGINT."""
+        """Announce readiness if not done yet, then block until SIGTERM/SIGINT."""
+        self.ready()
         while not self.stop_event.wait(0.2):
             pass
 

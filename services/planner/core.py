@@ -51,6 +51,7 @@ class Planner:
         self.cfg = cfg
         self.radius = inflation_radius(robot, cfg)
         self._floors: dict[str, _FloorGrid] = {}
+        astar(np.zeros((3, 3), dtype=bool), (0, 0), (2, 2))  # compile (or load) the JIT now
         for name, floor in site.floors.items():
             occ = floor.map.occupied(cfg.unknown_is_occupied)
             lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)

@@ -47,6 +47,7 @@ def main(argv: list[str] | None = None) -> None:
         for name in ("clock", "odom", "scan", "ground_truth", "sim_status"):
             svc.declare("publishes", keys.key(name))
 
+        svc.ready()
         if cfg.sim.lockstep:
             _wait_for_fleet(svc, barrier, wake)
         _run(svc, sim, barrier, wake)

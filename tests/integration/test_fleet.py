@@ -170,8 +170,12 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
     second = run_demo(str(rrd))
     for key in ("sim_time_s", "path_length_m", "min_clearance_m", "phases"):
         assert first[key] == second[key], key
-    shown = subprocess.run([str(Path(PYTHON).parent / "rerun"), "rrd", "print", str(rrd)],
-                           capture_output=True, text=True, timeout=60).stdout
+    shown = subprocess.run(
+        [str(Path(PYTHON).parent / "rerun"), "rrd", "print", str(rrd)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    ).stdout
     for entity in ("world/map", "world/path", "world/chair/pose", "world/chair/scan", "status/nav"):
         assert entity in shown, entity
 
