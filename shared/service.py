@@ -32,9 +32,8 @@ from shared.transport import Bus, open_session
 EXIT_CONFIG = 2
 
 
-def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
-    """The flags every program shares (zenoh's examples keep these in one helper too)."""
-    parser.add_argument("--config", metavar="FILE", help="fleet config YAML (defaults if absent)")
+def add_override_argument(parser: argparse.ArgumentParser) -> None:
+    """``--set KEY=VALUE`` (repeatable), collected in ``args.overrides``."""
     parser.add_argument(
         "--set",
         metavar="KEY=VALUE",
@@ -43,6 +42,12 @@ def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
         dest="overrides",
         help="override one config value, e.g. --set sim.seed=3 (repeatable)",
     )
+
+
+def add_transport_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags every program shares (zenoh's examples keep these in one helper too)."""
+    parser.add_argument("--config", metavar="FILE", help="fleet config YAML (defaults if absent)")
+    add_override_argument(parser)
     parser.add_argument("--robot", help="robot name (namespace of its keys)")
     parser.add_argument(
         "--connect",

@@ -12,6 +12,7 @@ from services.launcher.compose import render_compose
 from services.launcher.fleet import PROFILES, services_for
 from services.launcher.node import Supervisor, open_router, wait_ready
 from shared import config as config_mod
+from shared.service import add_override_argument
 from shared.topics import Keys
 
 COMPOSE_FILE = Path(__file__).resolve().parents[2] / "docker-compose.yml"
@@ -26,14 +27,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--profile", choices=PROFILES, default="sim")
     p.add_argument("--config", metavar="FILE", help="fleet config YAML")
-    p.add_argument(
-        "--set",
-        metavar="KEY=VALUE",
-        action="append",
-        default=[],
-        dest="overrides",
-        help="override one config value (repeatable)",
-    )
+    add_override_argument(p)
     p.add_argument(
         "--listen",
         metavar="ENDPOINT",

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from services.mission.core import load_scenario
 from services.mission.node import MissionRun, format_report, write_report
+from shared.service import add_override_argument
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -19,14 +20,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("scenario", help="scenario YAML")
     p.add_argument("--report", metavar="FILE", help="write the JSON report here")
-    p.add_argument(
-        "--set",
-        metavar="KEY=VALUE",
-        action="append",
-        default=[],
-        dest="overrides",
-        help="override one fleet config value (repeatable)",
-    )
+    add_override_argument(p)
     p.add_argument("--rrd", metavar="FILE", help="record the run for the rerun viewer")
     p.add_argument("--quiet", action="store_true", help="only print the report")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
