@@ -121,6 +121,7 @@ class PlannerConfig:
     cruise_speed: float = field(default=0.5, metadata=check(_positive))
     goal_speed_radius_m: float = field(default=1.0, metadata=check(_non_negative))
     waypoint_spacing_m: float = field(default=0.5, metadata=check(_positive))
+    landmarks: int = field(default=4, metadata=check(_non_negative))
     unknown_is_occupied: bool = True
 
 

@@ -72,9 +72,13 @@ def _search(
     parent: np.ndarray,
     mark: np.ndarray,
     search: int,
+    lm_dist: np.ndarray,
+    lm_goal: np.ndarray,
 ) -> np.ndarray:
     rows, cols = blocked.shape
     closed_mark = search + 1
+    dijkstra = gr < 0  # no goal: expand everything, h = 0 (landmark distances)
+    n_lm = lm_goal.shape[0]
     cap = 1024
     heap_f = np.empty(cap)
     heap_g = np.empty(cap)
@@ -83,11 +87,11 @@ def _search(
     dr8 = np.array([-1, 1, 0, 0, -1, -1, 1, 1])
     dc8 = np.array([0, 0, -1, 1, -1, 1, -1, 1])
     start = sr * cols + sc
-    goal = gr * cols + gc
+    goal = gr * cols + gc if not dijkstra else -1
     g[start] = 0.0
     mark[start] = search
     parent[start] = -1
-    heap_f[0] = _octile(sr, sc, gr, gc)
+    heap_f[0] = 0.0 if dijkstra else _octile(sr, sc, gr, gc)
     heap_g[0] = 0.0
     heap_i[0] = start
     size = 1
@@ -143,7 +147,16 @@ def _search(
                 mark[nxt] = search
                 g[nxt] = ng
                 parent[nxt] = cur
-                nf = ng + _octile(nr, nc, gr, gc)
+                h = 0.0
+                if not dijkstra:
+                    h = _octile(nr, nc, gr, gc)
+                    for k in range(n_lm):  # ALT: |d(L, n) - d(L, goal)| <= d(n, goal)
+                        if lm_goal[k] == np.inf:
+                            continue
+                        d = abs(lm_dist[k, nxt] - lm_goal[k]) - 1e-9
+                        if d > h:
+                            h = d
+                nf = ng + h
                 if size == cap:
                     cap *= 2
                     heap_f = np.resize(heap_f, cap)
@@ -159,7 +172,7 @@ def _search(
                     else:
                         break
                 heap_f[pos], heap_g[pos], heap_i[pos] = nf, ng, nxt
-    if mark[goal] != closed_mark:
+    if dijkstra or mark[goal] != closed_mark:
         return np.empty((0, 2), dtype=np.int64)
     length = 1
     node = goal
@@ -175,13 +188,77 @@ def _search(
     return out
 
 
+def distances_from(blocked: np.ndarray, source: tuple[int, int]) -> np.ndarray:
+    """Shortest 8-connected distance (cells, unit costs) from ``source`` to every cell (inf if
+    unreachable or blocked), by Dijkstra with the same moves as :func:`astar`."""
+    blocked = np.ascontiguousarray(blocked, dtype=np.bool_)
+    g, parent, mark, search = _BUFFERS.get(blocked.size)
+    _search(
+        blocked,
+        np.zeros((1, 1)),
+        False,
+        int(source[0]),
+        int(source[1]),
+        -1,
+        -1,
+        g,
+        parent,
+        mark,
+        search,
+        _NO_LANDMARKS,
+        _NO_LANDMARKS[:, 0],
+    )
+    return np.where(mark >= search, g, np.inf).reshape(blocked.shape)
+
+
+_NO_LANDMARKS = np.zeros((0, 1))
+
+
+class Landmarks:
+    """Exact distances from a few far-apart cells, for the ALT heuristic (Goldberg & Harrelson).
+
+    For any landmark L, |d(L, n) - d(L, goal)| <= d(n, goal) (triangle inequality), so the
+    heuristic stays admissible and consistent while it sees walls that the octile distance
+    does not: in a building, where the straight line crosses walls and the route must
+    follow corridors, A* expands a fraction of the cells. Built once per map (one Dijkstra
+    per landmark plus one); valid for any cell costs >= the unit costs (``cell_cost >= 0``).
+    Landmarks are picked by farthest-point selection over the free space.
+    """
+
+    def __init__(self, blocked: np.ndarray, count: int = 4) -> None:
+        if count < 1:
+            raise ValueError(f"landmark count must be >= 1, got {count}")
+        self.shape = blocked.shape
+        free = np.flatnonzero(~np.asarray(blocked, dtype=bool).ravel())
+        if len(free) == 0:
+            raise ValueError("no free cell to put a landmark on")
+        cols = blocked.shape[1]
+        seed = divmod(int(free[len(free) // 2]), cols)
+        far = distances_from(blocked, seed).ravel()
+        dists: list[np.ndarray] = []
+        nearest = np.full(far.shape, np.inf)
+        score = np.where(np.isfinite(far), far, -1.0)
+        self.cells: list[tuple[int, int]] = []
+        for _ in range(count):
+            cell = divmod(int(np.argmax(score)), cols)
+            self.cells.append(cell)
+            d = distances_from(blocked, cell).ravel()
+            dists.append(d)
+            nearest = np.minimum(nearest, d)
+            score = np.where(np.isfinite(nearest), nearest, -1.0)
+        self.dist = np.stack(dists)
+
+
 def astar(
     blocked: np.ndarray,
     start: tuple[int, int],
     goal: tuple[int, int],
     cell_cost: np.ndarray | None = None,
+    landmarks: Landmarks | None = None,
 ) -> np.ndarray:
     """The optimal 8-connected path of (row, col) cells from ``start`` to ``goal`` inclusive.
+
+    ``landmarks`` (built once for this grid) sharpens the heuristic; the path is the same.
 
     Raises:
         NoPathError: start or goal outside the grid or blocked, or no path between them.
@@ -201,6 +278,12 @@ def astar(
             raise ValueError(f"cell_cost shape {cost.shape} differs from grid {blocked.shape}")
     if blocked.size >= 2**31:
         raise ValueError(f"grid of {blocked.size} cells is too large (max 2**31 - 1)")
+    lm_dist, lm_goal = _NO_LANDMARKS, _NO_LANDMARKS[:, 0]
+    if landmarks is not None:
+        if landmarks.shape != blocked.shape:
+            raise ValueError(f"landmarks built for {landmarks.shape}, grid is {blocked.shape}")
+        lm_dist = landmarks.dist
+        lm_goal = lm_dist[:, int(goal[0]) * cols + int(goal[1])].copy()  # inf: other component
     g, parent, mark, search = _BUFFERS.get(blocked.size)
     path = _search(
         blocked,
@@ -214,6 +297,8 @@ def astar(
         parent,
         mark,
         search,
+        lm_dist,
+        lm_goal,
     )
     if len(path) == 0:
         raise NoPathError(f"goal cell {tuple(goal)} is unreachable from start cell {tuple(start)}")

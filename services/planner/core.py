@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.planner import errors
-from services.planner.astar import NoPathError, astar
+from services.planner.astar import Landmarks, NoPathError, astar
 from services.planner.inflation import inflate
 from shared.config import PlannerConfig, RobotConfig
 from shared.site import GridMap, Site, SiteError
@@ -36,6 +36,7 @@ class _FloorGrid:
     grid: GridMap
     lethal: np.ndarray
     cost: np.ndarray
+    landmarks: Landmarks | None
 
 
 def inflation_radius(robot: RobotConfig, cfg: PlannerConfig) -> float:
@@ -55,7 +56,8 @@ class Planner:
         for name, floor in site.floors.items():
             occ = floor.map.occupied(cfg.unknown_is_occupied)
             lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)
-            self._floors[name] = _FloorGrid(floor.map, lethal, cost)
+            lm = Landmarks(lethal, cfg.landmarks) if cfg.landmarks and (~lethal).any() else None
+            self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm)
 
     def resolve_place(self, place: str) -> tuple[float, float, float, str]:
         """(x, y, theta, floor) of a named place; UnknownPlace if the site has none so called."""
@@ -97,7 +99,9 @@ class Planner:
         s = self._cell(fg, start, "start", errors.StartOccupied)
         g = self._cell(fg, goal, "goal", errors.GoalOccupied)
         try:
-            cells = astar(fg.lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None)
+            cells = astar(
+                fg.lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks
+            )
         except NoPathError as exc:
             raise errors.NoPath(f"no path from {start} to {goal} on floor {floor}: {exc}") from None
         corners = shorten(cells, fg.lethal)

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from services.planner.astar import NoPathError, astar, path_cost
+from services.planner.astar import Landmarks, NoPathError, astar, distances_from, path_cost
 
 
 def reference_cost(blocked: np.ndarray, start, goal, cell_cost=None) -> float:
@@ -53,7 +53,8 @@ def grids(draw):
     start = tuple(int(v) for v in free[rng.integers(len(free))])
     goal = tuple(int(v) for v in free[rng.integers(len(free))])
     cost = rng.random((rows, cols)) * 2 if draw(st.booleans()) else None
-    return blocked, start, goal, cost
+    landmarks = Landmarks(blocked, draw(st.integers(1, 3))) if draw(st.booleans()) else None
+    return blocked, start, goal, cost, landmarks
 
 
 def check_path(blocked: np.ndarray, path: np.ndarray, start, goal) -> None:
@@ -69,13 +70,13 @@ def check_path(blocked: np.ndarray, path: np.ndarray, start, goal) -> None:
 @settings(max_examples=150, deadline=None)
 @given(grids())
 def test_optimal_against_independent_dijkstra(case) -> None:
-    blocked, start, goal, cost = case
+    blocked, start, goal, cost, landmarks = case
     expected = reference_cost(blocked, start, goal, cost)
     if not math.isfinite(expected):
         with pytest.raises(NoPathError):
-            astar(blocked, start, goal, cost)
+            astar(blocked, start, goal, cost, landmarks)
         return
-    path = astar(blocked, start, goal, cost)
+    path = astar(blocked, start, goal, cost, landmarks)
     check_path(blocked, path, start, goal)
     assert path_cost(path, cost) == pytest.approx(expected, abs=1e-6)
 
@@ -107,3 +108,27 @@ def test_corridor_cost_and_repeated_calls_reuse_buffers() -> None:
         assert path_cost(path) == 39.0
     other = np.zeros((7, 9), bool)
     assert path_cost(astar(other, (0, 0), (6, 8))) == pytest.approx(6 * math.sqrt(2) + 2)
+
+
+def test_landmark_distances_match_dijkstra() -> None:
+    rng = np.random.default_rng(5)
+    blocked = rng.random((15, 20)) < 0.25
+    blocked[0, 0] = False
+    d = distances_from(blocked, (0, 0))
+    for cell in np.argwhere(~blocked)[:25]:
+        expected = reference_cost(blocked, (0, 0), tuple(cell))
+        assert d[tuple(cell)] == pytest.approx(expected) or (
+            math.isinf(expected) and math.isinf(d[tuple(cell)])
+        )
+    assert np.isinf(d[blocked]).all()
+
+
+def test_landmarks_shrink_the_search_not_the_path() -> None:
+    blocked = np.zeros((60, 200), bool)
+    blocked[30, 10:] = True  # a long wall: the straight line to the goal is misleading
+    lm = Landmarks(blocked, 3)
+    a = astar(blocked, (35, 190), (25, 190), landmarks=lm)
+    b = astar(blocked, (35, 190), (25, 190))
+    assert path_cost(a) == pytest.approx(path_cost(b))
+    with pytest.raises(ValueError, match="landmarks built for"):
+        astar(np.zeros((5, 5), bool), (0, 0), (4, 4), landmarks=lm)
