@@ -121,7 +121,14 @@ class PlannerConfig:
     cruise_speed: float = field(default=0.5, metadata=check(_positive))
     goal_speed_radius_m: float = field(default=1.0, metadata=check(_non_negative))
     waypoint_spacing_m: float = field(default=0.5, metadata=check(_positive))
+    max_waypoints: int = field(default=50, metadata=check(_positive))
     landmarks: int = field(default=4, metadata=check(_non_negative))
+    door_standoff_m: float = field(default=1.0, metadata=check(_positive))
+    door_exit_m: float = field(default=1.2, metadata=check(_positive))
+    door_speed: float = field(default=0.2, metadata=check(_positive))
+    door_slow_radius_m: float = field(default=1.5, metadata=check(_non_negative))
+    elevator_standoff_m: float = field(default=1.5, metadata=check(_positive))
+    elevator_ride_cost_m: float = field(default=10.0, metadata=check(_non_negative))
     unknown_is_occupied: bool = True
 
 

@@ -254,15 +254,54 @@ class RouteRequest(Msg):
     place: str = ""
 
 
-@message("route_reply")
+@message("checkpoint")
+@dataclass
+class Checkpoint(Msg):
+    """A door or elevator between two legs of a route, with the poses to drive to.
+
+    Door: ``approach`` on the door's normal at the standoff, facing the door; ``exit`` on the
+    far side with the same heading; ``pass_distance_m`` between them. Elevator: ``approach``
+    outside the car door on ``floor`` facing into the car; ``exit`` outside the car door on
+    ``to_floor``; ``pass_distance_m`` from the approach to the car centre.
+    """
+
+    kind: str
+    id: str
+    floor: str
+    approach: Pose2D
+    exit: Pose2D
+    pass_distance_m: float
+    door_type: str = ""
+    width_m: float = 0.0
+    to_floor: str = ""
+
+
+@message("route_reply", version=2)
 @dataclass
 class RouteReply(Msg):
-    """The planner's answer: a path, or an error code and a one-line reason."""
+    """The planner's answer: legs joined by checkpoints, or an error code and a reason.
+
+    ``path`` is the whole route on the start floor as one path (the legs joined through
+    the doors), for a follower that does not handle checkpoints itself.
+    """
 
     ok: bool
     path: Path | None = None
     error_code: str = ""
     error: str = ""
+    legs: list[Path] = field(default_factory=list)
+    checkpoints: list[Checkpoint] = field(default_factory=list)
+
+
+@message("availability")
+@dataclass
+class Availability(Msg):
+    """Mark a door or elevator unavailable to the planner (or available again), and why."""
+
+    stamp: float
+    name: str
+    available: bool
+    reason: str = ""
 
 
 @message("follow_status")

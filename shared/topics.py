@@ -123,6 +123,15 @@ TOPICS: tuple[Topic, ...] = (
         "route request; reply is a RouteReply",
     ),
     Topic(
+        "planner_updates",
+        "{ns}/planner/updates",
+        m.Availability,
+        "pub",
+        "navigator, user",
+        "planner",
+        "mark a door or elevator blocked / free",
+    ),
+    Topic(
         "nav_goal",
         "{ns}/nav/goal",
         m.NavGoal,

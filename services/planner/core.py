@@ -67,49 +67,53 @@ class Planner:
             raise errors.UnknownPlace(str(exc)) from None
         return p.x, p.y, p.theta, p.floor
 
-    def route(
-        self,
-        start: tuple[float, float],
-        start_floor: str,
-        goal: tuple[float, float] | None,
-        goal_floor: str,
-        place: str = "",
-    ) -> Plan:
-        """Plan to ``goal`` on ``goal_floor`` or to the named ``place`` (one of them is needed)."""
-        if place:
-            gx, gy, _theta, goal_floor = self.resolve_place(place)
-            goal = (gx, gy)
-        elif goal is None:
-            raise errors.BadRequest("route request has neither goal nor place")
-        start_floor = start_floor or goal_floor
-        if goal_floor and goal_floor != start_floor:
-            raise errors.CrossFloorUnsupported(
-                f"route from floor {start_floor} to floor {goal_floor}: routes between floors "
-                "are not supported yet"
-            )
-        return self.plan(start, goal, start_floor)
-
-    def plan(self, start: tuple[float, float], goal: tuple[float, float], floor: str) -> Plan:
-        """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor)."""
+    def floor_name(self, floor: str) -> str:
+        """The site's name for ``floor`` ("" = the first); UnknownFloor if there is none."""
         try:
-            floor = self.site.floor(floor).name
+            return self.site.floor(floor).name
         except SiteError as exc:
             raise errors.UnknownFloor(str(exc)) from None
+
+    def is_free(self, xy: tuple[float, float], floor: str) -> bool:
+        """True if the chair's reference point may stand at ``xy`` (inside the map, not lethal)."""
+        fg = self._floors[self.floor_name(floor)]
+        r, c = fg.grid.to_cell(*xy)
+        return fg.grid.contains(r, c) and not fg.lethal[r, c]
+
+    def plan(
+        self,
+        start: tuple[float, float],
+        goal: tuple[float, float],
+        floor: str,
+        closed: list[tuple[tuple[float, float], tuple[float, float]]] = (),
+    ) -> Plan:
+        """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor).
+
+        ``closed`` lists segments (door openings) the path must not cross.
+        """
+        floor = self.floor_name(floor)
         fg = self._floors[floor]
         s = self._cell(fg, start, "start", errors.StartOccupied)
         g = self._cell(fg, goal, "goal", errors.GoalOccupied)
+        lethal = fg.lethal
+        if closed:
+            lethal = lethal.copy()
+            for p1, p2 in closed:
+                block_segment(lethal, fg.grid, p1, p2)
+            lethal[s] = lethal[g] = False
         try:
-            cells = astar(
-                fg.lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks
-            )
+            cells = astar(lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks)
         except NoPathError as exc:
-            raise errors.NoPath(f"no path from {start} to {goal} on floor {floor}: {exc}") from None
-        corners = shorten(cells, fg.lethal)
+            raise errors.NoPath(
+                f"no path from {_xy(start)} to {_xy(goal)} on floor {floor}: {exc}"
+            ) from None
+        corners = shorten(cells, lethal)
         pts = fg.grid.to_world(corners)
         pts[0], pts[-1] = start, goal
-        waypoints = densify(pts, self.cfg.waypoint_spacing_m)
+        length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+        spacing = max(self.cfg.waypoint_spacing_m, length / self.cfg.max_waypoints)
+        waypoints = densify(pts, spacing)
         v_ref = speed_profile(waypoints, self.cfg.cruise_speed, self.cfg.goal_speed_radius_m)
-        length = float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum())
         return Plan(floor, waypoints, v_ref, length)
 
     def _cell(
@@ -130,6 +134,30 @@ class Planner:
                 f"{self.radius:.2f} m of one"
             )
         return r, c
+
+
+def _xy(p: tuple[float, float]) -> str:
+    return f"({p[0]:.2f}, {p[1]:.2f})"
+
+
+def block_segment(
+    lethal: np.ndarray,
+    grid: GridMap,
+    p1: tuple[float, float],
+    p2: tuple[float, float],
+    thickness_m: float = 0.15,
+) -> None:
+    """Mark the cells within ``thickness_m`` of segment p1-p2 lethal (a closed door)."""
+    a, b = np.asarray(p1, float), np.asarray(p2, float)
+    n = max(2, int(np.ceil(np.linalg.norm(b - a) / (grid.resolution / 2))) + 1)
+    pts = a + (b - a) * np.linspace(0.0, 1.0, n)[:, None]
+    k = int(np.ceil(thickness_m / grid.resolution))
+    for dr in range(-k, k + 1):
+        for dc in range(-k, k + 1):
+            rows = np.floor((pts[:, 1] - grid.origin[1]) / grid.resolution).astype(int) + dr
+            cols = np.floor((pts[:, 0] - grid.origin[0]) / grid.resolution).astype(int) + dc
+            ok = (rows >= 0) & (rows < lethal.shape[0]) & (cols >= 0) & (cols < lethal.shape[1])
+            lethal[rows[ok], cols[ok]] = True
 
 
 def line_is_free(lethal: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:

@@ -7,6 +7,7 @@ import pytest
 
 from services.planner import errors
 from services.planner.core import Planner, densify, line_is_free, speed_profile
+from services.planner.routes import RoutePlanner
 from shared.config import PlannerConfig, RobotConfig
 from shared.site import load_site
 from tests.conftest import ROOT
@@ -15,12 +16,12 @@ SITE = load_site(ROOT / "sites" / "two_rooms")
 
 
 @pytest.fixture(scope="module")
-def planner() -> Planner:
-    return Planner(SITE, RobotConfig(), PlannerConfig())
+def planner() -> RoutePlanner:
+    return RoutePlanner(Planner(SITE, RobotConfig(), PlannerConfig()), SITE, PlannerConfig())
 
 
-def test_route_through_the_doorway(planner: Planner) -> None:
-    plan = planner.route((2.0, 2.7), "1", None, "", place="room_b")
+def test_plan_through_the_doorway(planner: RoutePlanner) -> None:
+    plan = planner.planner.plan((2.0, 2.7), (10.5, 2.7), "1")
     wp = plan.waypoints
     assert np.allclose(wp[0], (2.0, 2.7)) and np.allclose(wp[-1], (10.5, 2.7))
     crossing = wp[np.argmin(np.abs(wp[:, 0] - 6.2))]
@@ -29,7 +30,7 @@ def test_route_through_the_doorway(planner: Planner) -> None:
     legs = np.linalg.norm(np.diff(wp, axis=0), axis=1)
     assert legs.max() <= PlannerConfig().waypoint_spacing_m + 1e-9
     assert 8.3 <= plan.length_m < 9.5
-    fg = planner._floors["1"]
+    fg = planner.planner._floors["1"]
     cells = np.array([fg.grid.to_cell(x, y) for x, y in densify(wp, 0.02)])
     assert not fg.lethal[cells[:, 0], cells[:, 1]].any()  # never inside the inflated area
 
@@ -47,7 +48,7 @@ def test_route_through_the_doorway(planner: Planner) -> None:
 )
 def test_refusals_are_typed_with_one_line(planner, start, goal, place, error) -> None:
     with pytest.raises(error) as info:
-        planner.route(start, "1", goal, "1" if goal else "", place)
+        planner.request(start, "1", goal, "1" if goal else "", place)
     assert "\n" not in str(info.value) and info.value.code in errors.CODES
 
 
@@ -60,7 +61,7 @@ def test_unreachable_goal_is_no_path(tmp_path) -> None:
     )
     planner = Planner(load_site(write_map(occ, tmp_path, "m")), RobotConfig(), PlannerConfig())
     with pytest.raises(errors.NoPath):
-        planner.route((1.5, 1.5), "", (4.5, 1.5), "")
+        planner.plan((1.5, 1.5), (4.5, 1.5), "")
 
 
 def test_speed_profile_slows_to_zero_at_the_goal() -> None:

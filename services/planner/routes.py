@@ -1,0 +1,241 @@
+"""Routes: legs of path joined by door and elevator checkpoints, across rooms and floors.
+
+On one floor, the route is found by one A* over the whole floor (door openings are free
+space in the map), which is optimal across every room at once; the declared doors it
+crosses become checkpoints, in order. The legs between them are then planned again with
+every declared door closed, so that no leg slips through a door without a checkpoint.
+The seed instead ran Dijkstra over (room, entry door) states with A* per room; the
+whole-floor A* finds the same or a shorter route without needing a room graph, and the
+landmark heuristic keeps it fast. A blocked door is closed for the first search too, so
+the route avoids it or there is none.
+
+Between floors, every available elevator serving both floors is tried (leg to its entry
+on the start floor, a ride, leg from its exit on the goal floor) and the cheapest kept.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from services.planner import errors
+from services.planner.core import Plan, Planner
+from shared.config import PlannerConfig
+from shared.site import Door, Site
+
+Pose = tuple[float, float, float]
+Segment = tuple[tuple[float, float], tuple[float, float]]
+
+
+@dataclass
+class Checkpoint:
+    """A door or elevator between two legs, with the poses the mission tree drives to."""
+
+    kind: str  # "door" or "elevator"
+    id: str
+    floor: str
+    approach: Pose  # door: on the normal at the standoff, facing the door
+    exit: Pose  # door: the far side, same heading; elevator: outside the car on to_floor
+    pass_distance_m: float
+    door_type: str = ""
+    width_m: float = 0.0
+    to_floor: str = ""
+
+
+@dataclass
+class Route:
+    """``legs[0]``, ``checkpoints[0]``, ``legs[1]``, ... (one more leg than checkpoints)."""
+
+    legs: list[Plan]
+    checkpoints: list[Checkpoint] = field(default_factory=list)
+
+    @property
+    def length_m(self) -> float:
+        return sum(leg.length_m for leg in self.legs) + sum(
+            c.pass_distance_m for c in self.checkpoints if c.kind == "door"
+        )
+
+
+def door_geometry(door: Door) -> tuple[np.ndarray, np.ndarray, float]:
+    """Centre, unit normal (left of p1 -> p2) and width of a door segment."""
+    p1, p2 = np.asarray(door.p1, float), np.asarray(door.p2, float)
+    along = p2 - p1
+    width = float(np.linalg.norm(along))
+    normal = np.array([-along[1], along[0]]) / width
+    return (p1 + p2) / 2, normal, width
+
+
+def crossings(path: np.ndarray, doors: list[Door]) -> list[tuple[float, Door, int]]:
+    """Doors whose segment the polyline ``path`` crosses: (arc position, door, +1/-1 side)."""
+    found = []
+    a, b = path[:-1], path[1:]
+    seg_start = np.concatenate([[0.0], np.cumsum(np.linalg.norm(b - a, axis=1))])[:-1]
+    for door in doors:
+        p, q = np.asarray(door.p1, float), np.asarray(door.p2, float)
+        d = b - a
+        e = q - p
+        denom = d[:, 0] * e[1] - d[:, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((p[0] - a[:, 0]) * e[1] - (p[1] - a[:, 1]) * e[0]) / denom
+            u = ((p[0] - a[:, 0]) * d[:, 1] - (p[1] - a[:, 1]) * d[:, 0]) / denom
+        hit = np.flatnonzero((np.abs(denom) > 1e-12) & (t >= 0) & (t < 1) & (u >= 0) & (u <= 1))
+        if len(hit):
+            i = int(hit[0])
+            _centre, normal, _w = door_geometry(door)
+            side = 1 if float(np.dot(d[i], normal)) > 0 else -1
+            found.append((float(seg_start[i] + t[i] * np.linalg.norm(d[i])), door, side))
+    return sorted(found, key=lambda item: item[0])
+
+
+class RoutePlanner:
+    """Routes on a site, with doors and elevators that can be marked unavailable."""
+
+    def __init__(self, planner: Planner, site: Site, cfg: PlannerConfig) -> None:
+        self.planner = planner
+        self.site = site
+        self.cfg = cfg
+        self.blocked_doors: set[str] = set()
+        self.unavailable_lifts: set[str] = set()
+
+    def set_door_blocked(self, door_id: str, blocked: bool) -> None:
+        if door_id not in {d.id for d in self.site.doors} | {e.id for e in self._elevators()}:
+            raise errors.BadRequest(f"no door or elevator called {door_id!r} in this site")
+        target = (
+            self.unavailable_lifts
+            if door_id in {e.id for e in self._elevators()}
+            else self.blocked_doors
+        )
+        (target.add if blocked else target.discard)(door_id)
+
+    def _elevators(self) -> list:
+        return list(getattr(self.site, "elevators", []) or [])
+
+    def request(
+        self,
+        start: tuple[float, float],
+        start_floor: str,
+        goal: tuple[float, float] | None,
+        goal_floor: str,
+        place: str = "",
+    ) -> Route:
+        """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed)."""
+        if place:
+            gx, gy, _theta, goal_floor = self.planner.resolve_place(place)
+            goal = (gx, gy)
+        elif goal is None:
+            raise errors.BadRequest("route request has neither goal nor place")
+        return self.route(start, start_floor, goal, goal_floor)
+
+    def route(
+        self,
+        start: tuple[float, float],
+        start_floor: str,
+        goal: tuple[float, float],
+        goal_floor: str,
+    ) -> Route:
+        """The cheapest route; NoPath (naming what is unavailable) if there is none."""
+        start_floor = self.planner.floor_name(start_floor)
+        goal_floor = self.planner.floor_name(goal_floor or start_floor)
+        if start_floor == goal_floor:
+            return self.floor_route(start, goal, start_floor)
+        best: Route | None = None
+        best_cost = math.inf
+        reasons = []
+        for lift in self._elevators():
+            if start_floor not in lift.floors or goal_floor not in lift.floors:
+                continue
+            if lift.id in self.unavailable_lifts:
+                reasons.append(f"{lift.id} unavailable")
+                continue
+            try:
+                route = self._via_lift(start, start_floor, goal, goal_floor, lift)
+            except errors.PlanError as exc:
+                reasons.append(f"{lift.id}: {exc}")
+                continue
+            cost = route.length_m + self.cfg.elevator_ride_cost_m
+            if cost < best_cost:
+                best, best_cost = route, cost
+        if best is None:
+            why = "; ".join(reasons) or "no elevator serves both floors"
+            raise errors.NoPath(f"no route from floor {start_floor} to floor {goal_floor} ({why})")
+        return best
+
+    def _via_lift(self, start, start_floor, goal, goal_floor, lift) -> Route:
+        standoff = self.cfg.elevator_standoff_m
+        entry = lift.entry_pose(start_floor, standoff)
+        out = lift.entry_pose(goal_floor, standoff)
+        first = self.floor_route(start, entry[:2], start_floor)
+        second = self.floor_route(out[:2], goal, goal_floor)
+        inside = lift.inside_pose()
+        ride = Checkpoint(
+            "elevator",
+            lift.id,
+            start_floor,
+            entry,
+            out,
+            float(math.hypot(inside[0] - entry[0], inside[1] - entry[1])),
+            to_floor=goal_floor,
+        )
+        return Route(first.legs + second.legs, first.checkpoints + [ride] + second.checkpoints)
+
+    def floor_route(
+        self, start: tuple[float, float], goal: tuple[float, float], floor: str
+    ) -> Route:
+        """A route on one floor: legs joined by checkpoints for each declared door crossed."""
+        doors = [d for d in self.site.doors if d.floor == floor]
+        blocked = [(d.p1, d.p2) for d in doors if d.id in self.blocked_doors]
+        try:
+            whole = self.planner.plan(start, goal, floor, blocked)
+        except errors.NoPath as exc:
+            if blocked:
+                names = ", ".join(sorted(d.id for d in doors if d.id in self.blocked_doors))
+                raise errors.NoPath(f"{exc} (blocked: {names})") from None
+            raise
+        open_doors = [d for d in doors if d.id not in self.blocked_doors]
+        crossed = crossings(whole.waypoints, open_doors)
+        if not crossed:
+            return Route([whole])
+        closed = [(d.p1, d.p2) for d in doors]
+        checkpoints = [self._door_checkpoint(door, side, floor) for _s, door, side in crossed]
+        legs = []
+        here = start
+        for cp in checkpoints:
+            legs.append(self._leg(here, cp.approach[:2], floor, closed))
+            here = cp.exit[:2]
+        legs.append(self._leg(here, goal, floor, closed))
+        return Route(legs, checkpoints)
+
+    def _leg(self, a, b, floor: str, closed: list[Segment]) -> Plan:
+        """A leg that ends standing still at ``b`` (a door's approach pose or the goal)."""
+        return self.planner.plan(a, b, floor, closed)
+
+    def _door_checkpoint(self, door: Door, side: int, floor: str) -> Checkpoint:
+        centre, normal, width = door_geometry(door)
+        n = normal * side  # the direction of travel through the door
+        heading = math.atan2(n[1], n[0])
+        approach = self._free_point(centre, -n, self.cfg.door_standoff_m, floor, door.id)
+        exit_ = self._free_point(centre, n, self.cfg.door_exit_m, floor, door.id)
+        return Checkpoint(
+            "door",
+            door.id,
+            floor,
+            (approach[0], approach[1], heading),
+            (exit_[0], exit_[1], heading),
+            float(np.linalg.norm(np.asarray(exit_) - np.asarray(approach))),
+            door.type,
+            width,
+        )
+
+    def _free_point(
+        self, centre: np.ndarray, direction: np.ndarray, distance: float, floor: str, door_id: str
+    ) -> tuple[float, float]:
+        """The point at ``distance`` along ``direction``, pulled in until it is free."""
+        for d in np.arange(distance, 0.29, -0.1):
+            p = centre + direction * d
+            if self.planner.is_free((float(p[0]), float(p[1])), floor):
+                return float(p[0]), float(p[1])
+        raise errors.NoPath(
+            f"door {door_id}: no free pose within {distance:.1f} m of it on one of its sides"
+        )

@@ -1,0 +1,84 @@
+"""Routes on the bundled two-room site: door checkpoints, blocked doors, stitched legs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from services.planner import errors
+from services.planner.core import Planner
+from services.planner.node import to_reply
+from services.planner.routes import RoutePlanner, crossings
+from shared.codec import decode, encode
+from shared.config import PlannerConfig, RobotConfig
+from shared.messages import RouteReply
+from shared.site import Door, load_site
+from tests.conftest import ROOT
+
+SITE = load_site(ROOT / "sites" / "two_rooms")
+
+
+@pytest.fixture
+def routes() -> RoutePlanner:
+    return RoutePlanner(Planner(SITE, RobotConfig(), PlannerConfig()), SITE, PlannerConfig())
+
+
+def test_route_through_a_declared_door_has_its_checkpoint(routes: RoutePlanner) -> None:
+    route = routes.request((2.0, 2.7), "1", None, "", "room_b")
+    assert [c.id for c in route.checkpoints] == ["door_ab"]
+    door = route.checkpoints[0]
+    assert door.kind == "door" and door.door_type == "manual"
+    assert door.width_m == pytest.approx(1.0)
+    # approach 1.0 m before the door, facing it (+x); exit 1.2 m beyond
+    assert door.approach == pytest.approx((5.2, 2.7, 0.0))
+    assert door.exit == pytest.approx((7.4, 2.7, 0.0))
+    assert door.pass_distance_m == pytest.approx(2.2)
+    first, second = route.legs
+    assert np.allclose(first.waypoints[-1], door.approach[:2]) and first.v_ref[-1] == 0.0
+    assert np.allclose(second.waypoints[0], door.exit[:2])
+    assert np.allclose(second.waypoints[-1], (10.5, 2.7))
+    for leg in route.legs:  # no leg crosses the door on its own
+        assert crossings(leg.waypoints, SITE.doors) == []
+        assert len(leg.waypoints) <= PlannerConfig().max_waypoints + 5
+
+
+def test_the_other_way_faces_the_other_way(routes: RoutePlanner) -> None:
+    route = routes.request((10.5, 2.7), "1", (2.0, 2.7), "1")
+    door = route.checkpoints[0]
+    assert door.approach == pytest.approx((7.2, 2.7, math.pi))
+    assert door.exit == pytest.approx((5.0, 2.7, math.pi))
+
+
+def test_blocked_door_means_no_route_until_freed(routes: RoutePlanner) -> None:
+    routes.set_door_blocked("door_ab", True)
+    with pytest.raises(errors.NoPath, match="blocked: door_ab"):
+        routes.request((2.0, 2.7), "1", None, "", "room_b")
+    routes.set_door_blocked("door_ab", False)
+    assert routes.request((2.0, 2.7), "1", None, "", "room_b").checkpoints
+    with pytest.raises(errors.BadRequest, match="no door or elevator called 'door_zz'"):
+        routes.set_door_blocked("door_zz", True)
+
+
+def test_same_room_route_has_no_checkpoint(routes: RoutePlanner) -> None:
+    route = routes.request((1.5, 1.5), "1", (4.5, 4.0), "1")
+    assert route.checkpoints == [] and len(route.legs) == 1
+
+
+def test_reply_round_trips_and_joins_legs(routes: RoutePlanner) -> None:
+    reply = to_reply(routes.request((2.0, 2.7), "1", None, "", "room_b"), "route-7")
+    back = decode(encode(reply), RouteReply)
+    assert [leg.path_id for leg in back.legs] == ["route-7.0", "route-7.1"]
+    assert back.checkpoints[0].approach.x == pytest.approx(5.2)
+    assert np.allclose(back.path.waypoints[0], (2.0, 2.7))
+    assert np.allclose(back.path.waypoints[-1], (10.5, 2.7)) and back.path.v_ref[-1] == 0
+
+
+def test_crossings_finds_order_and_side() -> None:
+    doors = [Door("a", "1", (1.0, -1.0), (1.0, 1.0)), Door("b", "1", (3.0, -1.0), (3.0, 1.0))]
+    path = np.array([[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]])
+    found = crossings(path, doors)
+    assert [(d.id, side) for _s, d, side in found] == [("a", -1), ("b", -1)]
+    assert [round(s, 6) for s, _d, _side in found] == [1.0, 3.0]
+    assert crossings(path[::-1].copy(), doors)[0][1].id == "b"
