@@ -108,6 +108,10 @@ class SimConfig:
     lidar_fov_deg: float = field(default=360.0, metadata=check(_positive))
     lidar_range_m: float = field(default=12.0, metadata=check(_positive))
     lidar_noise_m: float = field(default=0.01, metadata=check(_non_negative))
+    odom_scale_error: float = 0.01
+    odom_turn_bias: float = 0.005
+    odom_noise_v: float = field(default=0.01, metadata=check(_non_negative))
+    odom_noise_w: float = field(default=0.01, metadata=check(_non_negative))
     status_rate_hz: float = field(default=10.0, metadata=check(_positive))
     start: StartPose = field(default_factory=StartPose)
 
@@ -130,6 +134,21 @@ class PlannerConfig:
     elevator_standoff_m: float = field(default=1.5, metadata=check(_positive))
     elevator_ride_cost_m: float = field(default=10.0, metadata=check(_non_negative))
     unknown_is_occupied: bool = True
+
+
+@dataclass
+class LocalisationConfig:
+    """Where the chair is: ``map`` mode matches scans to the floor map, ``odometry`` does not."""
+
+    mode: str = field(
+        default="map",
+        metadata=check(lambda v: None if v in ("map", "odometry") else "must be map or odometry"),
+    )
+    min_inlier_ratio: float = field(default=0.5, metadata=check(_positive))
+    max_correction_m: float = field(default=0.5, metadata=check(_positive))
+    max_correction_rad: float = field(default=0.3, metadata=check(_positive))
+    lost_after_scans: int = field(default=5, metadata=check(_positive))
+    match_cutoff_m: float = field(default=0.4, metadata=check(_positive))
 
 
 @dataclass
@@ -178,6 +197,7 @@ class FleetConfig:
     transport: TransportConfig = field(default_factory=TransportConfig)
     sim: SimConfig = field(default_factory=SimConfig)
     planner: PlannerConfig = field(default_factory=PlannerConfig)
+    localisation: LocalisationConfig = field(default_factory=LocalisationConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     launcher: LauncherConfig = field(default_factory=LauncherConfig)

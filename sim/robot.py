@@ -70,3 +70,38 @@ class Chair:
         s.y += s.v * dt * math.sin(mid)
         s.theta = math.atan2(math.sin(s.theta + s.w * dt), math.cos(s.theta + s.w * dt))
         return s
+
+
+class WheelOdometry:
+    """Odometry as wheel encoders give it: the true motion with scale error, turn-rate bias
+    and noise, integrated from the start pose (so it drifts, as a real chair's does)."""
+
+    def __init__(
+        self,
+        start: ChairState,
+        scale_error: float,
+        turn_bias: float,
+        noise_v: float,
+        noise_w: float,
+        rng,
+    ) -> None:
+        self.x, self.y, self.theta = start.x, start.y, start.theta
+        self.scale = 1.0 + scale_error
+        self.turn_bias = turn_bias
+        self.noise_v = noise_v
+        self.noise_w = noise_w
+        self.rng = rng
+        self.v = self.w = 0.0
+
+    def step(self, v: float, w: float, dt: float) -> None:
+        """Integrate one step of the true speeds (v, w) as the encoders measure them."""
+        moving = abs(v) > 1e-6 or abs(w) > 1e-6
+        nv, nw = self.rng.normal(0.0, [self.noise_v, self.noise_w]) if moving else (0.0, 0.0)
+        self.v = v * self.scale + nv
+        self.w = w + (self.turn_bias if moving else 0.0) + nw
+        mid = self.theta + 0.5 * self.w * dt
+        self.x += self.v * dt * math.cos(mid)
+        self.y += self.v * dt * math.sin(mid)
+        self.theta = math.atan2(
+            math.sin(self.theta + self.w * dt), math.cos(self.theta + self.w * dt)
+        )

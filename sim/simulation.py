@@ -14,7 +14,7 @@ import pybullet as pb
 
 from shared.config import FleetConfig
 from shared.site import Site
-from sim.robot import Chair, ChairState
+from sim.robot import Chair, ChairState, WheelOdometry
 from sim.sensors import PlanarLidar
 from sim.world import World
 
@@ -45,6 +45,15 @@ class Simulation:
         self.rng = np.random.default_rng(sim.seed)
         start = ChairState(x, y, theta)
         self.chair = Chair(robot, start, sim.motor_lag_s, sim.watchdog_s)
+        odo_rng = np.random.default_rng([sim.seed, 1])  # its own stream: scans do not shift it
+        self.odometry = WheelOdometry(
+            ChairState(x, y, theta),
+            sim.odom_scale_error,
+            sim.odom_turn_bias,
+            sim.odom_noise_v,
+            sim.odom_noise_w,
+            odo_rng,
+        )
         self.lidar = PlanarLidar(
             self.world.client,
             sim.lidar_beams,
@@ -88,6 +97,7 @@ class Simulation:
         """Advance one tick: move, measure clearance, and scan when due."""
         tripped_before = self.chair.watchdog_tripped
         self.chair.step(self.dt, self.time)
+        self.odometry.step(self.state.v, self.state.w, self.dt)
         self.tick += 1
         self.time = self.tick * self.dt
         self._place_body()

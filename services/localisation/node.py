@@ -1,14 +1,18 @@
-"""Localisation service: publishes the chair's pose on the floor map.
+"""Localisation service: publishes the chair's pose on the current floor's map.
 
-Odometry mode for now: the pose is the start pose moved by odometry increments. It is
-a lockstep participant of the first stage, so the pose for a tick is out before the
-controller acts on that tick.
+``localisation.mode: map`` (default) matches every LiDAR scan against the floor map and
+uses odometry in between; ``odometry`` dead-reckons from the start pose. It is a
+lockstep participant of the first stage, so the pose for a tick is out before the
+controller acts on that tick. A pose that stops matching the map is flagged ``lost``.
 """
 
 from __future__ import annotations
 
-from services.localisation.core import OdometryLocaliser
-from shared.messages import Clock, Odometry, Pose2D, PoseEstimate
+import time
+
+from services.localisation.core import MapLocaliser, MapModeSettings, OdometryLocaliser
+from services.localisation.matcher import DistanceField
+from shared.messages import Clock, Event, Odometry, PointCloud, Pose2D, PoseEstimate
 from shared.service import Service
 from shared.site import SiteError, load_site
 
@@ -18,31 +22,74 @@ NAME = "localisation"
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+        lc = cfg.localisation
         try:
+            site = load_site(cfg.site)
             s = cfg.sim.start
-            loc = OdometryLocaliser(
-                *load_site(cfg.site).start_pose(s.place, s.x, s.y, s.theta, s.floor)
-            )
-        except SiteError as exc:
+            x, y, theta, floor = site.start_pose(s.place, s.x, s.y, s.theta, s.floor)
+            if lc.mode == "map":
+                settings = MapModeSettings(
+                    lc.min_inlier_ratio,
+                    lc.max_correction_m,
+                    lc.max_correction_rad,
+                    lc.lost_after_scans,
+                    lc.match_cutoff_m,
+                )
+                field = DistanceField(site.floor(floor).map)
+                loc = MapLocaliser(field, x, y, theta, floor, settings)
+            else:
+                loc = OdometryLocaliser(x, y, theta, floor)
+        except (SiteError, ValueError) as exc:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
-        latest: dict[str, Odometry] = {}
+        pending: dict[str, object] = {}
+        state = {"lost": False, "match_ms": 0.0}
 
         def on_odom(msg: Odometry) -> None:
-            latest["odom"] = msg
+            pending["odom"] = msg
+
+        def on_scan(msg: PointCloud) -> None:
+            pending["scan"] = msg
 
         def step(clock: Clock) -> None:
-            odom = latest.pop("odom", None)
+            odom = pending.pop("odom", None)
+            scan = pending.pop("scan", None)
             if odom is None:
                 return
-            x, y, theta = loc.update(odom.pose.x, odom.pose.y, odom.pose.theta)
-            floor = loc.floor or odom.pose.floor
+            if isinstance(loc, MapLocaliser):
+                loc.update_odometry(odom.pose.x, odom.pose.y, odom.pose.theta)
+                if scan is not None:
+                    t0 = time.perf_counter()
+                    loc.update_scan(scan.points)
+                    state["match_ms"] = 1000 * (time.perf_counter() - t0)
+                lost = loc.lost
+            else:
+                loc.update(odom.pose.x, odom.pose.y, odom.pose.theta)
+                lost = False
+            if lost != state["lost"]:
+                state["lost"] = lost
+                text = "scans no longer match the map" if lost else "scans match the map again"
+                bus.publish(
+                    keys.key("events", source=NAME),
+                    Event(
+                        odom.stamp,
+                        NAME,
+                        "lost" if lost else "found",
+                        text,
+                        "error" if lost else "info",
+                    ),
+                )
+                svc.log.warning("%s", text)
+            x, y, theta = loc.pose
             bus.publish(
-                pose_key, PoseEstimate(odom.stamp, Pose2D(x, y, theta, floor), loc.covariance)
+                pose_key,
+                PoseEstimate(odom.stamp, Pose2D(x, y, theta, loc.floor), loc.covariance, lost),
             )
 
         bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, on_odom)
+        bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, on_scan)
         pose_key = svc.declare("publishes", keys.pose)
+        svc.log.info("mode %s on floor %s", lc.mode, loc.floor)
         svc.every(50.0, step)
         svc.wait()
 

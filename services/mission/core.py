@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
 from shared.messages import NavStatus, Pose2D, SimStatus
@@ -106,6 +108,8 @@ class Recorder:
     phases: list[Phase] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     _last_xy: tuple[float, float] | None = None
+    _truth: dict[float, tuple[float, float, float]] = field(default_factory=dict)
+    _loc_sq: list[tuple[float, float]] = field(default_factory=list)
 
     @property
     def finished(self) -> bool:
@@ -133,12 +137,36 @@ class Recorder:
         self.collisions = max(self.collisions, msg.collisions)
         self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
 
-    def on_truth(self, x: float, y: float) -> None:
+    def on_truth(self, x: float, y: float, theta: float = 0.0, stamp: float | None = None) -> None:
         if self.finished:
             return
+        if stamp is not None:
+            self._truth[round(stamp, 6)] = (x, y, theta)
+            if len(self._truth) > 200:
+                self._truth.pop(next(iter(self._truth)))
         if self._last_xy is not None:
             self.path_length_m += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
         self._last_xy = (x, y)
+
+    def on_pose(self, stamp: float, x: float, y: float, theta: float) -> None:
+        """A pose estimate: compared with the ground truth of the same tick."""
+        truth = self._truth.get(round(stamp, 6))
+        if truth is None or self.finished:
+            return
+        dth = math.atan2(math.sin(theta - truth[2]), math.cos(theta - truth[2]))
+        self._loc_sq.append(((x - truth[0]) ** 2 + (y - truth[1]) ** 2, dth**2))
+
+    def localisation_error(self) -> dict[str, float | None]:
+        """RMS and max position error (m) and RMS heading error (deg) of the pose estimates."""
+        if not self._loc_sq:
+            return {"rms_m": None, "max_m": None, "rms_deg": None, "samples": 0}
+        sq = np.asarray(self._loc_sq)
+        return {
+            "rms_m": round(float(np.sqrt(sq[:, 0].mean())), 4),
+            "max_m": round(float(np.sqrt(sq[:, 0].max())), 4),
+            "rms_deg": round(float(np.degrees(np.sqrt(sq[:, 1].mean()))), 3),
+            "samples": len(sq),
+        }
 
     def on_time(self, stamp: float, limit_s: float) -> None:
         if self.finished:
@@ -167,6 +195,7 @@ class Recorder:
             "sim_time_s": round(self.sim_time_s, 3),
             "wall_time_s": round(wall_time_s, 3),
             "path_length_m": round(self.path_length_m, 3),
+            "localisation_error": self.localisation_error(),
             "phases": [
                 {
                     "name": p.name,

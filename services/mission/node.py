@@ -24,7 +24,7 @@ from services.launcher.node import Supervisor, open_router, wait_ready
 from services.mission.core import Recorder, Scenario
 from shared import config as config_mod
 from shared.lockstep import Participant
-from shared.messages import Clock, Event, NavGoal, NavStatus, Odometry, SimStatus
+from shared.messages import Clock, Event, NavGoal, NavStatus, Odometry, PoseEstimate, SimStatus
 from shared.topics import Keys
 from shared.transport import Bus
 
@@ -110,7 +110,14 @@ class MissionRun:
         bus.subscribe(keys.nav_status, NavStatus, self._on_status)
         bus.subscribe(keys.sim_status, SimStatus, self.recorder.on_sim_status)
         bus.subscribe(
-            keys.ground_truth, Odometry, lambda m: self.recorder.on_truth(m.pose.x, m.pose.y)
+            keys.ground_truth,
+            Odometry,
+            lambda m: self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp),
+        )
+        bus.subscribe(
+            keys.pose,
+            PoseEstimate,
+            lambda m: self.recorder.on_pose(m.stamp, m.pose.x, m.pose.y, m.pose.theta),
         )
         bus.subscribe(keys.key("events"), Event, self._on_event)
 
@@ -176,6 +183,12 @@ def format_report(report: dict[str, Any]) -> str:
         f"  collisions {report['collisions']}, min clearance "
         f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m",
     ]
+    loc = report["localisation_error"]
+    if loc["samples"]:
+        lines.append(
+            f"  localisation error: RMS {100 * loc['rms_m']:.1f} cm, max "
+            f"{100 * loc['max_m']:.1f} cm, heading RMS {loc['rms_deg']:.2f} deg"
+        )
     for p in report["phases"]:
         end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
         lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")

@@ -163,12 +163,14 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
     assert [p["name"] for p in first["phases"]] == ["plan", "follow"]
     assert 7.5 < first["path_length_m"] < 11.0
     assert first["sim_time_s"] < 60
+    loc = first["localisation_error"]  # map mode against drifting wheel odometry
+    assert loc["samples"] > 500 and loc["rms_m"] < 0.05 and loc["rms_deg"] < 1.0
     # lockstep: a second run gives the same figures to the millisecond and millimetre,
     # whatever the machine's load (only the wall time differs)
     # the second run also records for rerun: the extra process must not change the result
     rrd = tmp_path / "demo.rrd"
     second = run_demo(str(rrd))
-    for key in ("sim_time_s", "path_length_m", "min_clearance_m", "phases"):
+    for key in ("sim_time_s", "path_length_m", "min_clearance_m", "phases", "localisation_error"):
         assert first[key] == second[key], key
     shown = subprocess.run(
         [str(Path(PYTHON).parent / "rerun"), "rrd", "print", str(rrd)],
