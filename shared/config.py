@@ -94,10 +94,14 @@ class SimConfig:
     lockstep: bool = True
     lockstep_timeout_s: float = field(default=5.0, metadata=check(_positive))
     lockstep_stages: list[list[str]] = field(
-        default_factory=lambda: [["localisation", "mission"], ["controller"], ["navigator"]]
+        default_factory=lambda: [
+            ["localisation", "building", "mission"],
+            ["controller"],
+            ["navigator"],
+        ]
     )
     start_after: list[str] = field(
-        default_factory=lambda: ["localisation", "planner", "controller", "navigator"]
+        default_factory=lambda: ["localisation", "planner", "controller", "navigator", "building"]
     )
     start_wait_s: float = field(default=60.0, metadata=check(_non_negative))
     realtime_factor: float = field(default=1.0, metadata=check(_non_negative))
@@ -173,6 +177,59 @@ class NavigatorConfig:
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
 
 
+def _one_of(*choices: str):
+    return check(
+        lambda v: None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
+    )
+
+
+@dataclass
+class DoorEvent:
+    """A scheduled manual door action: at ``at_s`` seconds, ``open`` or ``close``."""
+
+    at_s: float = field(default=0.0, metadata=check(_non_negative))
+    action: str = field(default="open", metadata=_one_of("open", "close"))
+
+
+@dataclass
+class DoorBehaviour:
+    """How the building emulator plays one door (scenarios set these per door id)."""
+
+    motion: str = field(default="hinged", metadata=_one_of("hinged", "sliding"))
+    start_open: bool = False
+    schedule: list[DoorEvent] = field(default_factory=list)
+    fault: str = field(
+        default="", metadata=_one_of("", "stuck_closed", "stuck_half_open", "offline")
+    )
+
+
+@dataclass
+class LiftBehaviour:
+    """How the building emulator plays one lift."""
+
+    start_floor: str = ""
+    fault: str = field(default="", metadata=_one_of("", "out_of_service", "door_slow"))
+
+
+@dataclass
+class BuildingConfig:
+    """The building emulator: doors and lifts of the site, with per-id behaviours."""
+
+    rate_hz: float = field(default=50.0, metadata=check(_positive))
+    state_rate_hz: float = field(default=1.0, metadata=check(_positive))
+    hold_open_s: float = field(default=5.0, metadata=check(_positive))
+    sensor_range_m: float = field(default=1.5, metadata=check(_positive))
+    manual_doors_open: bool = True  # a manual door with no schedule and no behaviour: open
+    doors: dict[str, DoorBehaviour] = field(default_factory=dict)
+    lifts: dict[str, LiftBehaviour] = field(default_factory=dict)
+
+    def starts_open(self, door_id: str, door_type: str) -> bool:
+        """Whether a door starts open: its behaviour says so, or it is an unscripted manual one."""
+        if door_id in self.doors:
+            return self.doors[door_id].start_open
+        return door_type == "manual" and self.manual_doors_open
+
+
 @dataclass
 class LauncherConfig:
     """``wheelnav up``: the in-process router and the restart policy."""
@@ -198,6 +255,7 @@ class FleetConfig:
     sim: SimConfig = field(default_factory=SimConfig)
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     localisation: LocalisationConfig = field(default_factory=LocalisationConfig)
+    building: BuildingConfig = field(default_factory=BuildingConfig)
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     launcher: LauncherConfig = field(default_factory=LauncherConfig)
@@ -263,6 +321,11 @@ def _convert(hint: Any, value: Any, path: str) -> Any:
             raise ConfigError(f"{path}: expected a list, got {value!r}")
         (item,) = typing.get_args(hint)
         return [_convert(item, v, f"{path}[{i}]") for i, v in enumerate(value)]
+    if typing.get_origin(hint) is dict:
+        if not isinstance(value, dict):
+            raise ConfigError(f"{path}: expected a mapping, got {value!r}")
+        _key, item = typing.get_args(hint)
+        return {str(k): _convert(item, v, f"{path}.{k}") for k, v in value.items()}
     raise ConfigError(f"{path}: unsupported type {hint!r}")
 
 

@@ -244,6 +244,26 @@ class LiftRequest(Msg):
 # --------------------------------------------------------------------------------------
 
 
+@message("building_bodies")
+@dataclass
+class BuildingBodies(Msg):
+    """Simulation only: how far each door is open and where each lift car and its doors are,
+    for the simulator to move the bodies (a real building moves its own)."""
+
+    stamp: float
+    doors: list[str]
+    door_openings: np.ndarray = array("float64", (None,))
+    lifts: list[str] = field(default_factory=list)
+    car_elevations: np.ndarray = field(
+        default_factory=lambda: np.zeros(0),
+        metadata={"dtype": np.dtype("float64"), "shape": (None,)},
+    )
+    lift_door_openings: np.ndarray = field(
+        default_factory=lambda: np.zeros(0),
+        metadata={"dtype": np.dtype("float64"), "shape": (None,)},
+    )
+
+
 @message("route_request")
 @dataclass
 class RouteRequest(Msg):

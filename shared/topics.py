@@ -189,6 +189,15 @@ TOPICS: tuple[Topic, ...] = (
         "lift state",
     ),
     Topic(
+        "building_bodies",
+        BUILDING + "/sim/bodies",
+        m.BuildingBodies,
+        "pub",
+        "building (emulator)",
+        "sim",
+        "simulation only: door openings, car positions",
+    ),
+    Topic(
         "lift_request",
         BUILDING + "/lift/{lift}/request",
         m.LiftRequest,

@@ -14,6 +14,7 @@ import pybullet as pb
 
 from shared.config import FleetConfig
 from shared.site import Site
+from sim.doors import DoorLeaf
 from sim.robot import Chair, ChairState, WheelOdometry
 from sim.sensors import PlanarLidar
 from sim.world import World
@@ -74,6 +75,17 @@ class Simulation:
             pb.GEOM_BOX, halfExtents=half, physicsClientId=self.world.client
         )
         self.body = pb.createMultiBody(0, shape, physicsClientId=self.world.client)
+        behaviours = cfg.building.doors
+        self.doors = {
+            d.id: DoorLeaf(
+                self.world.client, d, behaviours[d.id].motion if d.id in behaviours else "hinged"
+            )
+            for d in site.doors
+            if d.floor == self.floor
+        }
+        for d in site.doors:  # as the building emulator will start them
+            if d.id in self.doors and cfg.building.starts_open(d.id, d.type):
+                self.doors[d.id].set_opening(1.0)
         self.collisions = 0
         self.in_collision = False
         self.clearance = math.inf
@@ -88,6 +100,13 @@ class Simulation:
     @property
     def state(self) -> ChairState:
         return self.chair.state
+
+    def set_door_openings(self, names: list[str], openings) -> None:
+        """Move the door leaves on this floor to the emulator's opening fractions."""
+        for name, opening in zip(names, openings, strict=True):
+            leaf = self.doors.get(name)
+            if leaf is not None:
+                leaf.set_opening(float(opening))
 
     def command(self, v: float, w: float) -> None:
         """A velocity command received now."""

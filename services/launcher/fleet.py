@@ -34,6 +34,12 @@ SERVICES: tuple[ServiceSpec, ...] = (
         "pybullet simulator: clock, odometry, LiDAR, collisions",
     ),
     ServiceSpec(
+        "building",
+        "services.building.node",
+        ("sim",),
+        "building emulator: doors and lifts (Open-RMF protocol)",
+    ),
+    ServiceSpec(
         "localisation", "services.localisation.node", ("sim", "hardware"), "pose on the floor map"
     ),
     ServiceSpec("planner", "services.planner.node", ("sim", "hardware"), "routes on the site maps"),

@@ -90,19 +90,23 @@ def match_scan(
         wx = x + c * pts[:, 0] - s * pts[:, 1]
         wy = y + s * pts[:, 0] + c * pts[:, 1]
         d, gx, gy = field.sample(np.stack([wx, wy], axis=1))
-        use = d < cutoff_m
+        # the cut-off shrinks as the match settles, so unmapped objects near walls (an open
+        # door leaf, a person) stop pulling; Cauchy weights soften what is left
+        cut = max(inlier_m, cutoff_m * 0.7 ** (it - 1))
+        use = d < cut
         if use.sum() < 10:
             break
         # d(world point)/d(theta) = (-s px - c py, c px - s py)
         dth = gx * (-s * pts[:, 0] - c * pts[:, 1]) + gy * (c * pts[:, 0] - s * pts[:, 1])
         jac = np.stack([gx, gy, dth], axis=1)[use]
         r = d[use]
-        h = jac.T @ jac + np.eye(3) * 1e-6
-        step = np.linalg.solve(h, -jac.T @ r)
+        w = 1.0 / (1.0 + (r / (0.5 * inlier_m)) ** 2)
+        h = (jac * w[:, None]).T @ jac + np.eye(3) * 1e-6
+        step = np.linalg.solve(h, -(jac * w[:, None]).T @ r)
         step[:2] = np.clip(step[:2], -0.2, 0.2)
         step[2] = max(-0.1, min(0.1, step[2]))
         x, y, th = x + step[0], y + step[1], th + step[2]
-        if abs(step[0]) < 1e-4 and abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
+        if cut <= inlier_m and max(abs(step[0]), abs(step[1]), abs(step[2])) < 1e-4:
             break
     c, s = math.cos(th), math.sin(th)
     final = np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], axis=1)

@@ -59,7 +59,14 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
                 "start": start,
                 "seed": data.get("seed", 0),
                 "realtime_factor": 0.0,
-                "start_after": ["localisation", "planner", "controller", "navigator", "mission"],
+                "start_after": [
+                    "localisation",
+                    "planner",
+                    "controller",
+                    "navigator",
+                    "building",
+                    "mission",
+                ],
             },
         },
     )

@@ -11,7 +11,17 @@ import threading
 import time
 
 from shared.lockstep import Barrier
-from shared.messages import Ack, Clock, Event, Odometry, PointCloud, Pose2D, SimStatus, Twist
+from shared.messages import (
+    Ack,
+    BuildingBodies,
+    Clock,
+    Event,
+    Odometry,
+    PointCloud,
+    Pose2D,
+    SimStatus,
+    Twist,
+)
 from shared.service import Service
 from shared.site import SiteError, load_site
 from sim.simulation import Simulation
@@ -41,7 +51,13 @@ def main(argv: list[str] | None = None) -> None:
             barrier.set_alive(key.rsplit("/", 1)[-1], alive)
             wake.notify_all()
 
+        def on_bodies(msg: BuildingBodies) -> None:
+            sim.set_door_openings(msg.doors, msg.door_openings)
+
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, on_cmd)
+        bus.subscribe(
+            svc.declare("subscribes", keys.key("building_bodies")), BuildingBodies, on_bodies
+        )
         bus.subscribe(svc.declare("subscribes", keys.ack), Ack, on_ack)
         bus.watch_alive(keys.key("alive"), on_alive)
         for name in ("clock", "odom", "scan", "ground_truth", "sim_status"):

@@ -41,6 +41,9 @@ def samples() -> list[m.Msg]:
         ),
         m.Checkpoint("elevator", "lift_a", "1", pose, pose, 1.5, to_floor="2"),
         m.Availability(1.0, "door_ab", False, "stuck closed"),
+        m.BuildingBodies(
+            2.0, ["d1", "d2"], np.array([0.0, 0.5]), ["lift_a"], np.array([4.0]), np.array([1.0])
+        ),
         m.FollowStatus(8.0, "route-1", "following", 0.4, 3.2, 0.05),
         m.NavGoal(9.0, "g1", pose),
         m.NavStatus(9.5, "g1", "running", "navigate", "follow", "", 0.2),
