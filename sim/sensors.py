@@ -41,11 +41,12 @@ class PlanarLidar:
         )
         self._dirs = np.stack([np.cos(self.angles), np.sin(self.angles)], axis=1)
 
-    def scan(self, x: float, y: float, theta: float) -> np.ndarray:
-        """Ray-cast from pose (x, y, theta); returns (N, 3) float32 points in the sensor frame."""
+    def scan(self, x: float, y: float, theta: float, base_z: float = 0.0) -> np.ndarray:
+        """Ray-cast from pose (x, y, theta) on a floor at ``base_z``; returns (N, 3) float32
+        points in the sensor frame."""
         c, s = math.cos(theta), math.sin(theta)
         world_dirs = self._dirs @ np.array([[c, s], [-s, c]])
-        origin = np.array([x, y, self.height_m])
+        origin = np.array([x, y, base_z + self.height_m])
         starts = np.broadcast_to(origin, (len(self.angles), 3))
         ends = starts.copy()
         ends[:, :2] += world_dirs * self.range_m

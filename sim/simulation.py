@@ -14,7 +14,7 @@ import pybullet as pb
 
 from shared.config import FleetConfig
 from shared.site import Site
-from sim.doors import DoorLeaf
+from sim.doors import DoorLeaf, LiftBody
 from sim.robot import Chair, ChairState, WheelOdometry
 from sim.sensors import PlanarLidar
 from sim.world import World
@@ -42,7 +42,12 @@ class Simulation:
         self.cfg = cfg
         s = sim.start
         x, y, theta, self.floor = site.start_pose(s.place, s.x, s.y, s.theta, s.floor)
-        self.world = World(site.floor(self.floor).map, cfg.planner.unknown_is_occupied)
+        self.elevations = {name: f.elevation for name, f in site.floors.items()}
+        self.z = self.elevations[self.floor]
+        self.world = World(site.floor(self.floor).map, cfg.planner.unknown_is_occupied, self.z)
+        for name, f in site.floors.items():  # every floor, stacked at its elevation
+            if name != self.floor:
+                self.world.add_floor(f.map, f.elevation, cfg.planner.unknown_is_occupied)
         self.rng = np.random.default_rng(sim.seed)
         start = ChairState(x, y, theta)
         self.chair = Chair(robot, start, sim.motor_lag_s, sim.watchdog_s)
@@ -78,10 +83,16 @@ class Simulation:
         behaviours = cfg.building.doors
         self.doors = {
             d.id: DoorLeaf(
-                self.world.client, d, behaviours[d.id].motion if d.id in behaviours else "hinged"
+                self.world.client,
+                d,
+                behaviours[d.id].motion if d.id in behaviours else "hinged",
+                self.elevations[d.floor],
             )
             for d in site.doors
-            if d.floor == self.floor
+        }
+        self.lifts = {
+            e.id: LiftBody(self.world.client, e, self.elevations)
+            for e in getattr(site, "elevators", [])
         }
         for d in site.doors:  # as the building emulator will start them
             if d.id in self.doors and cfg.building.starts_open(d.id, d.type):
@@ -101,8 +112,15 @@ class Simulation:
     def state(self) -> ChairState:
         return self.chair.state
 
+    def set_lifts(self, names: list[str], car_z, door_openings) -> None:
+        """Move the lift cars and their doors as the emulator says."""
+        for name, z, opening in zip(names, car_z, door_openings, strict=True):
+            body = self.lifts.get(name)
+            if body is not None:
+                body.set_state(float(z), float(opening))
+
     def set_door_openings(self, names: list[str], openings) -> None:
-        """Move the door leaves on this floor to the emulator's opening fractions."""
+        """Move the door leaves to the emulator's opening fractions."""
         for name, opening in zip(names, openings, strict=True):
             leaf = self.doors.get(name)
             if leaf is not None:
@@ -117,6 +135,7 @@ class Simulation:
         tripped_before = self.chair.watchdog_tripped
         self.chair.step(self.dt, self.time)
         self.odometry.step(self.state.v, self.state.w, self.dt)
+        self._ride()
         self.tick += 1
         self.time = self.tick * self.dt
         self._place_body()
@@ -130,8 +149,22 @@ class Simulation:
             result.events.append("watchdog: no command, stopping")
         if self.tick % self.scan_every == 0:
             s = self.state
-            result.scan = self.lidar.scan(s.x, s.y, s.theta)
+            result.scan = self.lidar.scan(s.x, s.y, s.theta, self.z)
         return result
+
+    def _ride(self) -> None:
+        """Carry the chair with a lift car it stands in; change floor where the car stops."""
+        s = self.state
+        cx = s.x + self._body_offset * math.cos(s.theta)
+        cy = s.y + self._body_offset * math.sin(s.theta)
+        for lift in self.lifts.values():
+            if self.floor in lift.elevations and lift.contains(cx, cy):
+                self.z = lift.car_z
+                stop = lift.floor_at()
+                if stop is not None:
+                    self.floor = stop
+                return
+        self.z = self.elevations[self.floor]
 
     def _place_body(self) -> None:
         s = self.state
@@ -139,7 +172,10 @@ class Simulation:
         cy = s.y + self._body_offset * math.sin(s.theta)
         orn = pb.getQuaternionFromEuler([0, 0, s.theta])
         pb.resetBasePositionAndOrientation(
-            self.body, [cx, cy, CHAIR_HEIGHT_M / 2 + 0.02], orn, physicsClientId=self.world.client
+            self.body,
+            [cx, cy, self.z + CHAIR_HEIGHT_M / 2 + 0.02],
+            orn,
+            physicsClientId=self.world.client,
         )
 
     def _measure(self) -> None:

@@ -34,17 +34,27 @@ def merge_boxes(occ: np.ndarray) -> list[tuple[int, int, int, int]]:
 
 
 class World:
-    """A pybullet DIRECT client holding one floor's walls."""
+    """A pybullet DIRECT client holding the walls of one or more floors, stacked."""
 
-    def __init__(self, grid: GridMap, unknown_is_occupied: bool = True) -> None:
+    def __init__(
+        self, grid: GridMap, unknown_is_occupied: bool = True, elevation: float = 0.0
+    ) -> None:
         self.client = pb.connect(pb.DIRECT)
         self.grid = grid
         self.wall_ids: set[int] = set()
+        self.add_floor(grid, elevation, unknown_is_occupied)
+
+    def add_floor(self, grid: GridMap, elevation: float, unknown_is_occupied: bool = True) -> None:
+        """Extrude ``grid``'s occupied cells into wall boxes standing at ``elevation``."""
         res = grid.resolution
         ox, oy = grid.origin[0], grid.origin[1]
         for r0, c0, r1, c1 in merge_boxes(grid.occupied(unknown_is_occupied)):
             half = [(c1 - c0) * res / 2, (r1 - r0) * res / 2, WALL_HEIGHT_M / 2]
-            centre = [ox + (c0 + c1) * res / 2, oy + (r0 + r1) * res / 2, WALL_HEIGHT_M / 2]
+            centre = [
+                ox + (c0 + c1) * res / 2,
+                oy + (r0 + r1) * res / 2,
+                elevation + WALL_HEIGHT_M / 2,
+            ]
             shape = pb.createCollisionShape(
                 pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client
             )

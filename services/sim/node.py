@@ -53,6 +53,7 @@ def main(argv: list[str] | None = None) -> None:
 
         def on_bodies(msg: BuildingBodies) -> None:
             sim.set_door_openings(msg.doors, msg.door_openings)
+            sim.set_lifts(msg.lifts, msg.car_elevations, msg.lift_door_openings)
 
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, on_cmd)
         bus.subscribe(
