@@ -86,6 +86,15 @@ TOPICS: tuple[Topic, ...] = (
         "pose on the floor map",
     ),
     Topic(
+        "initial_pose",
+        "{ns}/pose/initial",
+        m.PoseEstimate,
+        "pub",
+        "navigator, user",
+        "localisation",
+        "(re)initialise the pose, e.g. on a new floor after a lift ride",
+    ),
+    Topic(
         "ground_truth",
         "{ns}/sim/ground_truth",
         m.Odometry,

@@ -51,6 +51,24 @@ def main(argv: list[str] | None = None) -> None:
         def on_scan(msg: PointCloud) -> None:
             pending["scan"] = msg
 
+        fields: dict[str, DistanceField] = {}
+
+        def on_initial(msg: PoseEstimate) -> None:
+            p = msg.pose
+            floor = p.floor or loc.floor
+            try:
+                grid = site.floor(floor).map
+            except SiteError as exc:
+                svc.log.warning("initial pose refused: %s", exc)
+                return
+            if isinstance(loc, MapLocaliser):
+                if floor not in fields:
+                    fields[floor] = DistanceField(grid)
+                loc.reset(fields[floor], p.x, p.y, p.theta, floor)
+            else:
+                loc.reset(p.x, p.y, p.theta, floor)
+            svc.log.info("pose set to (%.2f, %.2f, %.2f) on floor %s", p.x, p.y, p.theta, floor)
+
         def step(clock: Clock) -> None:
             odom = pending.pop("odom", None)
             scan = pending.pop("scan", None)
@@ -88,6 +106,7 @@ def main(argv: list[str] | None = None) -> None:
 
         bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, on_odom)
         bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, on_scan)
+        bus.subscribe(svc.declare("subscribes", keys.initial_pose), PoseEstimate, on_initial)
         pose_key = svc.declare("publishes", keys.pose)
         svc.log.info("mode %s on floor %s", lc.mode, loc.floor)
         svc.every(50.0, step)

@@ -109,7 +109,8 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
         if result.scan is not None:
             bus.publish(keys.scan, PointCloud(stamp, "lidar", result.scan))
         o = sim.odometry
-        bus.publish(keys.odom, Odometry(stamp, Pose2D(o.x, o.y, o.theta, sim.floor), o.v, o.w))
+        # wheel odometry knows nothing of floors: the floor comes from the lift protocol
+        bus.publish(keys.odom, Odometry(stamp, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
         bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
         events_key = keys.key("events", source=NAME)
         if result.new_collision:
