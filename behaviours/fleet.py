@@ -34,3 +34,9 @@ class Fleet(Protocol):
 
     def pose(self) -> PoseEstimate | None:
         """The latest pose estimate."""
+
+    def door_mode(self, door_id: str) -> int | None:
+        """The building's last reported DoorMode of ``door_id`` (None if never reported)."""
+
+    def request_door(self, door_id: str, mode: int) -> None:
+        """Ask the building to open or close ``door_id`` (a DoorMode value)."""

@@ -1,28 +1,35 @@
-"""The mission tree: plan a route, follow it under a timeout, and stop safely on failure.
+"""Mission trees: plan a route, then drive it leg by leg and door by door, or stop safely.
 
-    Mission (Selector, memory)
-    ├── Navigate (Sequence, memory)
-    │   ├── Timeout(ComputeRoute)
-    │   └── Timeout(FollowPath)
-    └── SafeStop (Sequence, memory)
-        ├── StopChair
-        └── MissionFailed
+A mission runs two trees, one after the other (the second is built from the route the
+first one got, as the seed's phase manager built its action list)::
 
-Blackboard (namespace ``/mission``): ``goal`` (Pose2D or None), ``place`` (str), ``path``
-(Path), ``phase`` (str), ``failure`` (str). Later issues add door and elevator subtrees
-between the route and the arrival; the wiring stays.
+    Plan (Selector, memory)                 Route (Selector, memory)
+    ├── Timeout(ComputeRoute)               ├── Drive (Sequence, memory)
+    └── SafeStop                            │   ├── Timeout(FollowPath leg 0)
+        ├── StopChair                       │   ├── Door <id> (Sequence, memory)
+        └── MissionFailed                   │   │   ├── RequestDoor OPEN    (powered doors)
+                                            │   │   ├── Timeout(WaitForDoorOpen)
+                                            │   │   ├── Timeout(FollowPath through)
+                                            │   │   └── RequestDoor CLOSED  (powered doors)
+                                            │   ├── Timeout(FollowPath leg 1)
+                                            │   └── ...
+                                            └── SafeStop
+
+Blackboard (namespace ``/mission``): ``goal`` (Pose2D or None), ``place`` (str),
+``route`` (RouteReply), ``phase`` (str), ``action`` (str), ``failure`` (str).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
 from behaviours.fleet import Fleet
 from behaviours.timeouts import Timeout
-from shared.messages import Path, RouteReply
+from shared.messages import DoorMode, Path, RouteReply
 
 NS = "/mission"
 
@@ -53,8 +60,8 @@ class _FleetBehaviour(py_trees.behaviour.Behaviour):
 class ComputeRoute(_FleetBehaviour):
     """Ask the planner for a route to the goal; RUNNING until it answers.
 
-    Sends the request in ``initialise``. SUCCESS with ``/mission/path`` written when the
-    planner returns a path; FAILURE with the planner's reason otherwise. Reads
+    Sends the request in ``initialise``. SUCCESS with ``/mission/route`` written when the
+    planner returns a route; FAILURE with the planner's reason otherwise. Reads
     ``/mission/goal`` and ``/mission/place``.
     """
 
@@ -64,7 +71,7 @@ class ComputeRoute(_FleetBehaviour):
         super().__init__(name)
         self.bb.register_key("goal", access=Access.READ)
         self.bb.register_key("place", access=Access.READ)
-        self.bb.register_key("path", access=Access.WRITE)
+        self.bb.register_key("route", access=Access.WRITE)
         self._answer: tuple[RouteReply | None, str] | None = None
 
     def initialise(self) -> None:
@@ -88,8 +95,12 @@ class ComputeRoute(_FleetBehaviour):
             return self.fail(error)
         if not reply.ok or reply.path is None:
             return self.fail(f"{reply.error_code}: {reply.error}")
-        self.bb.path = reply.path
-        self.feedback_message = f"route {reply.path.path_id}, {len(reply.path.waypoints)} waypoints"
+        self.bb.route = reply
+        doors = [c.id for c in reply.checkpoints]
+        self.feedback_message = (
+            f"route {reply.path.path_id}: {len(reply.legs)} legs, "
+            f"checkpoints {', '.join(doors) or 'none'}"
+        )
         return Status.SUCCESS
 
     def terminate(self, new_status: Status) -> None:
@@ -97,7 +108,7 @@ class ComputeRoute(_FleetBehaviour):
 
 
 class FollowPath(_FleetBehaviour):
-    """Send ``/mission/path`` to the controller and wait until it reports arrival.
+    """Send ``path`` to the controller and wait until it reports arrival.
 
     RUNNING while the controller follows; SUCCESS on ``arrived`` for this path. A controller
     that reports ``idle`` without this path (it was restarted) gets the path again. Never
@@ -107,18 +118,17 @@ class FollowPath(_FleetBehaviour):
 
     phase = "follow"
 
-    def __init__(self, name: str = "FollowPath") -> None:
-        super().__init__(name)
-        self.bb.register_key("path", access=Access.READ)
-        self.path_id = ""
+    def __init__(self, path: Path, name: str = "", phase: str = "follow") -> None:
+        super().__init__(name or f"Follow {path.path_id}")
+        self.path = path
+        self.phase = phase
+        self.path_id = path.path_id
         self.sent_at = 0.0
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
-        path: Path = self.bb.path
-        self.path_id = path.path_id
         self.sent_at = self.fleet.now()
-        self.fleet.send_path(path)
+        self.fleet.send_path(self.path)
         self.feedback_message = f"following {self.path_id}"
 
     def update(self) -> Status:
@@ -131,7 +141,7 @@ class FollowPath(_FleetBehaviour):
         )
         if restarted:  # a restarted controller has lost the path: send it again
             self.sent_at = self.fleet.now()
-            self.fleet.send_path(self.bb.path)
+            self.fleet.send_path(self.path)
             self.feedback_message = f"controller idle: resent {self.path_id}"
             return Status.RUNNING
         if status is None or status.path_id != self.path_id:
@@ -168,20 +178,147 @@ class MissionFailed(py_trees.behaviour.Behaviour):
         return Status.FAILURE
 
 
-def create_mission_tree(
-    clock: Callable[[], float], plan_timeout_s: float, follow_timeout_s: float
-) -> py_trees.behaviour.Behaviour:
-    """Build the mission tree (the goal is set on the blackboard by the navigator)."""
+class RequestDoor(_FleetBehaviour):
+    """Send a DoorRequest (OPEN or CLOSED) for ``door_id``. Always SUCCESS at once."""
+
+    def __init__(self, door_id: str, mode: int) -> None:
+        word = "OPEN" if mode == DoorMode.OPEN else "CLOSED"
+        super().__init__(f"Request {door_id} {word}")
+        self.door_id, self.mode = door_id, mode
+
+    def update(self) -> Status:
+        self.fleet.request_door(self.door_id, self.mode)
+        self.feedback_message = "requested"
+        return Status.SUCCESS
+
+
+class WaitForDoorOpen(_FleetBehaviour):
+    """RUNNING until the building reports ``door_id`` OPEN, then SUCCESS.
+
+    CLOSED, MOVING, OFFLINE, UNKNOWN and no report at all are all "not open": an unknown
+    door is never treated as open (the seed's weakness). The timeout above it bounds the
+    wait. Counterpart of a ``Check`` that would answer at once.
+    """
+
+    phase = "door"
+
+    def __init__(self, door_id: str) -> None:
+        super().__init__(f"WaitForDoorOpen {door_id}")
+        self.door_id = door_id
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self.fleet.stop()
+
+    def update(self) -> Status:
+        mode = self.fleet.door_mode(self.door_id)
+        if mode == DoorMode.OPEN:
+            self.feedback_message = "open"
+            return Status.SUCCESS
+        names = {0: "closed", 1: "moving", 3: "offline", 4: "unknown"}
+        self.feedback_message = f"door {names.get(mode, 'not reported')}, waiting"
+        return Status.RUNNING
+
+
+class Unsupported(_FleetBehaviour):
+    """Always FAILURE with a reason: a checkpoint this navigator cannot handle yet."""
+
+    def __init__(self, name: str, reason: str) -> None:
+        super().__init__(name)
+        self.reason = reason
+
+    def update(self) -> Status:
+        return self.fail(self.reason)
+
+
+def _timeouts() -> Callable[[str], None]:
     bb = py_trees.blackboard.Client(name="MissionTimeouts", namespace=NS)
     bb.register_key("failure", access=Access.WRITE)
 
     def record(reason: str) -> None:
         bb.failure = reason
 
-    plan = Timeout("PlanTimeout", ComputeRoute(), plan_timeout_s, clock, record)
-    follow = Timeout("FollowTimeout", FollowPath(), follow_timeout_s, clock, record)
-    navigate = py_trees.composites.Sequence("Navigate", memory=True, children=[plan, follow])
-    safe_stop = py_trees.composites.Sequence(
+    return record
+
+
+def _safe_stop() -> py_trees.behaviour.Behaviour:
+    return py_trees.composites.Sequence(
         "SafeStop", memory=True, children=[StopChair(), MissionFailed("MissionFailed")]
     )
-    return py_trees.composites.Selector("Mission", memory=True, children=[navigate, safe_stop])
+
+
+def create_plan_tree(
+    clock: Callable[[], float], plan_timeout_s: float
+) -> py_trees.behaviour.Behaviour:
+    """The first tree of a mission: ask for a route (the goal is on the blackboard)."""
+    plan = Timeout("PlanTimeout", ComputeRoute(), plan_timeout_s, clock, _timeouts())
+    return py_trees.composites.Selector("Plan", memory=True, children=[plan, _safe_stop()])
+
+
+def straight_path(
+    path_id: str,
+    floor: str,
+    a: tuple[float, float],
+    b: tuple[float, float],
+    speed: float,
+    spacing: float = 0.25,
+) -> Path:
+    """A straight path from ``a`` to ``b`` at ``speed``, stopping at ``b``."""
+    n = max(2, int(np.ceil(np.hypot(b[0] - a[0], b[1] - a[1]) / spacing)) + 1)
+    pts = np.linspace(a, b, n)
+    v = np.full(n, speed)
+    v[-1] = 0.0
+    return Path(0.0, path_id, floor, pts, v)
+
+
+def create_route_tree(
+    route: RouteReply,
+    clock: Callable[[], float],
+    follow_timeout_s: float,
+    door_timeout_s: float,
+    door_speed: float,
+) -> py_trees.behaviour.Behaviour:
+    """The second tree of a mission: drive the route's legs and pass its checkpoints in order."""
+    record = _timeouts()
+    steps: list[py_trees.behaviour.Behaviour] = []
+    for i, leg in enumerate(route.legs):
+        steps.append(Timeout(f"Leg {i} timeout", FollowPath(leg), follow_timeout_s, clock, record))
+        if i >= len(route.checkpoints):
+            continue
+        cp = route.checkpoints[i]
+        if cp.kind != "door":
+            steps.append(
+                Unsupported(
+                    f"Elevator {cp.id}",
+                    f"elevator rides are not handled by this navigator yet "
+                    f"({cp.id}, floor {cp.floor} -> {cp.to_floor})",
+                )
+            )
+            break
+        through = straight_path(
+            f"{route.path.path_id}.door{i}",
+            cp.floor,
+            (cp.approach.x, cp.approach.y),
+            (cp.exit.x, cp.exit.y),
+            door_speed,
+        )
+        door_steps: list[py_trees.behaviour.Behaviour] = []
+        if cp.door_type == "powered":
+            door_steps.append(RequestDoor(cp.id, DoorMode.OPEN))
+        door_steps += [
+            Timeout(f"Door {cp.id} wait", WaitForDoorOpen(cp.id), door_timeout_s, clock, record),
+            Timeout(
+                f"Door {cp.id} pass",
+                FollowPath(through, f"Pass {cp.id}", "door"),
+                max(10.0, 4 * cp.pass_distance_m / door_speed),
+                clock,
+                record,
+            ),
+        ]
+        if cp.door_type == "powered":
+            door_steps.append(RequestDoor(cp.id, DoorMode.CLOSED))
+        steps.append(
+            py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=door_steps)
+        )
+    drive = py_trees.composites.Sequence("Drive", memory=True, children=steps)
+    return py_trees.composites.Selector("Route", memory=True, children=[drive, _safe_stop()])

@@ -173,6 +173,7 @@ class NavigatorConfig:
     rate_hz: float = field(default=10.0, metadata=check(_positive))
     plan_timeout_s: float = field(default=10.0, metadata=check(_positive))
     follow_timeout_s: float = field(default=600.0, metadata=check(_positive))
+    door_timeout_s: float = field(default=60.0, metadata=check(_positive))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
 

@@ -71,6 +71,7 @@ class Bus:
         self._keep: list[Any] = []
         self._count_lock = threading.Lock()
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()
+        self._closing = False
         self._dispatcher = threading.Thread(target=self._dispatch, name=f"{name}-bus", daemon=True)
         self._dispatcher.start()
 
@@ -91,6 +92,8 @@ class Bus:
             if job is None:
                 return
             fn, args = job
+            if self._closing:
+                continue  # shutting down: what is still queued is not delivered
             try:
                 with self.lock:
                     fn(*args)
@@ -258,6 +261,9 @@ class Bus:
 
     def close(self) -> None:
         """Undeclare everything, close the session and stop the dispatcher."""
+        self._closing = True
+        with self.lock:  # let a callback that is running finish first
+            pass
         self._keep.clear()
         self._publishers.clear()
         self.session.close()

@@ -14,10 +14,12 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
-from behaviours.mission import NS, create_mission_tree
+from behaviours.mission import NS, create_plan_tree, create_route_tree
 from shared.lockstep import Participant
 from shared.messages import (
     Clock,
+    DoorRequest,
+    DoorState,
     FollowStatus,
     NavGoal,
     NavStatus,
@@ -45,6 +47,7 @@ class ZenohFleet:
         self.participant: Participant | None = None
         self._pose: PoseEstimate | None = None
         self._follow: FollowStatus | None = None
+        self._doors: dict[str, int] = {}
 
     def now(self) -> float:
         return self.clock.stamp if self.clock else 0.0
@@ -85,6 +88,16 @@ class ZenohFleet:
     def pose(self) -> PoseEstimate | None:
         return self._pose
 
+    def on_door_state(self, msg: DoorState) -> None:
+        self._doors[msg.door_name] = msg.current_mode
+
+    def door_mode(self, door_id: str) -> int | None:
+        return self._doors.get(door_id)
+
+    def request_door(self, door_id: str, mode: int) -> None:
+        req = DoorRequest(self.now(), self.keys.robot, door_id, mode)
+        self.bus.publish(self.keys.key("door_request", door=door_id), req)
+
 
 class Navigator:
     """One mission at a time: a fresh tree per goal, status on change."""
@@ -98,8 +111,9 @@ class Navigator:
         self._last_sent: tuple | None = None
         self._last_sent_at = -1e9
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
-        for key in ("goal", "place", "failure", "phase"):
+        for key in ("goal", "place", "failure", "phase", "route"):
             self.bb.register_key(key, access=Access.WRITE)
+        self.stage = "plan"
 
     def on_goal(self, msg: NavGoal) -> None:
         if msg.cancel:
@@ -114,23 +128,37 @@ class Navigator:
         if self.tree is not None and self.status.state == "running":
             self.tree.interrupt()
         self.bb.goal, self.bb.place, self.bb.failure, self.bb.phase = msg.goal, msg.place, "", ""
-        root = create_mission_tree(
-            self.fleet.now, self.cfg.plan_timeout_s, self.cfg.follow_timeout_s
-        )
+        self.stage = "plan"
+        self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
+        target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
+        self.svc.log.info("mission %s to %s", msg.goal_id, target)
+        self.status = NavStatus(self.fleet.now(), msg.goal_id, "running")
+
+    def _grow(self, root: py_trees.behaviour.Behaviour) -> None:
         self.tree = py_trees.trees.BehaviourTree(root)
         # setup only stores the fleet handle (never blocks); a finite timeout would need
         # signals, which only work on the main thread, and goals arrive on Zenoh threads
         self.tree.setup(timeout=py_trees.common.Duration.INFINITE, fleet=self.fleet)
-        target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
-        self.svc.log.info("mission %s to %s", msg.goal_id, target)
-        self.status = NavStatus(self.fleet.now(), msg.goal_id, "running")
 
     def step(self, clock: Clock) -> None:
         self.fleet.clock = clock
         if self.tree is not None and self.status.state == "running":
             self.tree.tick()
             result = self.tree.root.status
-            if result == Status.SUCCESS:
+            if result == Status.SUCCESS and self.stage == "plan":
+                self.stage = "route"
+                c = self.cfg
+                self._grow(
+                    create_route_tree(
+                        self.bb.route,
+                        self.fleet.now,
+                        c.follow_timeout_s,
+                        c.door_timeout_s,
+                        self.svc.cfg.planner.door_speed,
+                    )
+                )
+                self._set("running", phase="follow", action="navigate")
+            elif result == Status.SUCCESS:
                 self._set("succeeded", reason="arrived")
             elif result == Status.FAILURE:
                 self._set("failed", reason=self.bb.failure or "mission failed")
@@ -181,6 +209,9 @@ def main(argv: list[str] | None = None) -> None:
         bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, fleet.on_pose)
         bus.subscribe(svc.declare("subscribes", keys.follow_status), FollowStatus, fleet.on_follow)
         bus.subscribe(svc.declare("subscribes", keys.nav_goal), NavGoal, nav.on_goal)
+        bus.subscribe(
+            svc.declare("subscribes", keys.key("door_state")), DoorState, fleet.on_door_state
+        )
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.path)
         svc.declare("queries", keys.route)

@@ -1,4 +1,4 @@
-"""The mission tree ticked for real, against a scripted fleet (the tree is pure logic)."""
+"""The mission trees ticked for real, against a scripted fleet (the trees are pure logic)."""
 
 from __future__ import annotations
 
@@ -6,12 +6,20 @@ import numpy as np
 import py_trees
 from py_trees.common import Status
 
-from behaviours.mission import create_mission_tree
-from shared.messages import FollowStatus, Path, Pose2D, PoseEstimate, RouteReply
+from behaviours.mission import create_plan_tree, create_route_tree
+from shared.messages import (
+    Checkpoint,
+    DoorMode,
+    FollowStatus,
+    Path,
+    Pose2D,
+    PoseEstimate,
+    RouteReply,
+)
 
 
 class ScriptedFleet:
-    """Answers route requests at once (or never) and reports follow states it is told."""
+    """Answers route requests at once (or never); door modes and follow states as told."""
 
     def __init__(self, answer: RouteReply | None) -> None:
         self.t = 0.0
@@ -19,6 +27,8 @@ class ScriptedFleet:
         self.sent: list[Path] = []
         self.stops = 0
         self.follow: FollowStatus | None = None
+        self.doors: dict[str, int] = {}
+        self.door_requests: list[tuple[str, int]] = []
 
     def now(self) -> float:
         return self.t
@@ -39,44 +49,64 @@ class ScriptedFleet:
     def pose(self) -> PoseEstimate | None:
         return PoseEstimate(self.t, Pose2D(0, 0, 0), np.eye(3))
 
+    def door_mode(self, door_id: str) -> int | None:
+        return self.doors.get(door_id)
 
-def tree_with(fleet: ScriptedFleet, plan_timeout: float = 5.0, follow_timeout: float = 20.0):
-    root = create_mission_tree(fleet.now, plan_timeout, follow_timeout)
+    def request_door(self, door_id: str, mode: int) -> None:
+        self.door_requests.append((door_id, mode))
+
+    def arrive(self) -> None:
+        self.follow = FollowStatus(self.t, self.sent[-1].path_id, "arrived", 1.0, 0.0, 0.0)
+
+
+def grow(root, fleet):
     tree = py_trees.trees.BehaviourTree(root)
     tree.setup(fleet=fleet)
+    return tree
+
+
+def blackboard():
     bb = py_trees.blackboard.Client(name="test", namespace="/mission")
-    for key in ("goal", "place", "failure", "phase"):
+    for key in ("goal", "place", "failure", "phase", "route"):
         bb.register_key(key, access=py_trees.common.Access.WRITE)
     bb.goal, bb.place, bb.failure, bb.phase = None, "room_b", "", ""
-    return tree, bb
+    return bb
 
 
-PATH = Path(0.0, "route-1", "1", np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.5, 0.0]))
+def leg(path_id: str) -> Path:
+    return Path(0.0, path_id, "1", np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.5, 0.0]))
 
 
-def test_plans_follows_and_succeeds() -> None:
-    fleet = ScriptedFleet(RouteReply(True, PATH))
-    tree, bb = tree_with(fleet)
+def door(kind: str = "manual") -> Checkpoint:
+    return Checkpoint(
+        "door", "d1", "1", Pose2D(1, 0, 0, "1"), Pose2D(3.2, 0, 0, "1"), 2.2, kind, 1.0
+    )
+
+
+ROUTE = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[door()])
+
+
+def test_plan_tree_writes_the_route() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(ROUTE)
+    tree = grow(create_plan_tree(fleet.now, 5.0), fleet)
     tree.tick()
-    assert tree.root.status == Status.RUNNING and fleet.sent[0].path_id == "route-1"
-    assert bb.phase == "follow"
-    fleet.follow = FollowStatus(1.0, "route-1", "arrived", 1.0, 0.0, 0.0)
-    tree.tick()
-    assert tree.root.status == Status.SUCCESS
+    assert tree.root.status == Status.SUCCESS and bb.route is ROUTE
 
 
 def test_planner_refusal_stops_safely_with_its_reason() -> None:
+    bb = blackboard()
     fleet = ScriptedFleet(RouteReply(False, None, "GOAL_OCCUPIED", "goal is inside a wall"))
-    tree, bb = tree_with(fleet)
+    tree = grow(create_plan_tree(fleet.now, 5.0), fleet)
     tree.tick()
-    assert tree.root.status == Status.FAILURE
-    assert fleet.stops == 1 and fleet.sent == []
+    assert tree.root.status == Status.FAILURE and fleet.stops == 1
     assert "GOAL_OCCUPIED" in bb.failure
 
 
 def test_silent_planner_times_out_on_fleet_time() -> None:
+    bb = blackboard()
     fleet = ScriptedFleet(None)
-    tree, bb = tree_with(fleet, plan_timeout=5.0)
+    tree = grow(create_plan_tree(fleet.now, 5.0), fleet)
     for t in range(5):
         fleet.t = float(t)
         tree.tick()
@@ -85,15 +115,73 @@ def test_silent_planner_times_out_on_fleet_time() -> None:
     tree.tick()
     assert tree.root.status == Status.FAILURE
     assert bb.failure == "ComputeRoute: timed out after 5 s"
-    assert fleet.stops == 1
 
 
-def test_follow_timeout_stops_the_chair() -> None:
-    fleet = ScriptedFleet(RouteReply(True, PATH))
-    tree, bb = tree_with(fleet, follow_timeout=10.0)
+def test_route_waits_for_the_door_never_taking_unknown_for_open() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = grow(create_route_tree(ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
     tree.tick()
-    fleet.t = 10.5
+    assert fleet.sent[-1].path_id == "r.0"
+    fleet.arrive()
+    for mode in (None, DoorMode.UNKNOWN, DoorMode.CLOSED, DoorMode.MOVING):  # not open
+        if mode is not None:
+            fleet.doors["d1"] = mode
+        fleet.t += 1
+        tree.tick()
+        assert fleet.sent[-1].path_id == "r.0" and tree.root.status == Status.RUNNING
+    fleet.doors["d1"] = DoorMode.OPEN
+    tree.tick()
+    through = fleet.sent[-1]
+    assert through.path_id == "r.door0" and np.allclose(through.waypoints[-1], (3.2, 0))
+    assert through.v_ref[0] == 0.2
+    fleet.arrive()
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.1"
+    fleet.arrive()
+    tree.tick()
+    assert tree.root.status == Status.SUCCESS
+
+
+def test_door_that_never_opens_times_out_and_stops() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = grow(create_route_tree(ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    fleet.t = 61.0
     tree.tick()
     assert tree.root.status == Status.FAILURE
-    assert bb.failure == "FollowPath: timed out after 10 s"
-    assert fleet.stops >= 1
+    assert bb.failure == "WaitForDoorOpen d1: timed out after 60 s"
+    assert fleet.sent[-1].path_id == "r.0"  # never drove towards the closed door
+
+
+def test_powered_door_is_requested_open_then_released() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    route = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[door("powered")])
+    tree = grow(create_route_tree(route, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    assert fleet.door_requests == [("d1", DoorMode.OPEN)]
+    fleet.doors["d1"] = DoorMode.OPEN
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED)
+
+
+def test_elevator_checkpoint_fails_with_a_reason() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    lift = Checkpoint(
+        "elevator", "lift_a", "1", Pose2D(1, 0, 0), Pose2D(1, 0, 0), 1.5, to_floor="2"
+    )
+    route = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[lift])
+    tree = grow(create_route_tree(route, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    assert tree.root.status == Status.FAILURE and "elevator rides" in bb.failure
