@@ -86,6 +86,17 @@ class StartPose:
 
 
 @dataclass
+class PedestrianConfig:
+    """A scripted pedestrian: a cylinder walking a closed loop of waypoints."""
+
+    waypoints: list[list[float]] = field(default_factory=list)
+    speed: float = field(default=1.0, metadata=check(_positive))
+    radius: float = field(default=0.25, metadata=check(_positive))
+    floor: str = ""
+    start_delay_s: float = field(default=0.0, metadata=check(_non_negative))
+
+
+@dataclass
 class SimConfig:
     """The headless pybullet simulator."""
 
@@ -116,8 +127,10 @@ class SimConfig:
     odom_turn_bias: float = 0.005
     odom_noise_v: float = field(default=0.01, metadata=check(_non_negative))
     odom_noise_w: float = field(default=0.01, metadata=check(_non_negative))
+    caster_disturbance: float = field(default=0.05, metadata=check(_non_negative))
     status_rate_hz: float = field(default=10.0, metadata=check(_positive))
     start: StartPose = field(default_factory=StartPose)
+    pedestrians: list[PedestrianConfig] = field(default_factory=list)
 
 
 @dataclass

@@ -30,12 +30,21 @@ class Chair:
     """Unicycle dynamics with speed and acceleration limits and a first-order motor lag."""
 
     def __init__(
-        self, robot: RobotConfig, state: ChairState, motor_lag_s: float, watchdog_s: float
+        self,
+        robot: RobotConfig,
+        state: ChairState,
+        motor_lag_s: float,
+        watchdog_s: float,
+        caster: float = 0.0,
+        rng=None,
     ) -> None:
         self.robot = robot
         self.state = state
         self.motor_lag_s = motor_lag_s
         self.watchdog_s = watchdog_s
+        self.caster = caster  # std of the yaw-rate kick (rad/s) when the chair sets off
+        self.rng = rng
+        self._kick = 0.0
         self.cmd = (0.0, 0.0)
         self.last_cmd_time: float | None = None
         self.watchdog_tripped = False
@@ -53,6 +62,7 @@ class Chair:
     def step(self, dt: float, now: float) -> ChairState:
         """Advance by ``dt``; ``now`` is the simulation time at the start of the step."""
         r, s = self.robot, self.state
+        was_v = s.v
         stale = self.last_cmd_time is None or now - self.last_cmd_time > self.watchdog_s
         if stale:
             self.watchdog_tripped = self.last_cmd_time is not None
@@ -65,10 +75,14 @@ class Chair:
             w_target = s.w + alpha * (self.cmd[1] - s.w)
             s.v = _approach(s.v, v_target, r.max_accel * dt)
             s.w = _approach(s.w, w_target, r.max_turn_accel * dt)
-        mid = s.theta + 0.5 * s.w * dt
+        if self.caster > 0 and self.rng is not None and abs(s.v) > 0.02 >= abs(was_v):
+            self._kick = float(self.rng.normal(0.0, self.caster))  # casters swing round
+        self._kick *= math.exp(-dt / 0.5)
+        w = s.w + self._kick
+        mid = s.theta + 0.5 * w * dt
         s.x += s.v * dt * math.cos(mid)
         s.y += s.v * dt * math.sin(mid)
-        s.theta = math.atan2(math.sin(s.theta + s.w * dt), math.cos(s.theta + s.w * dt))
+        s.theta = math.atan2(math.sin(s.theta + w * dt), math.cos(s.theta + w * dt))
         return s
 
 

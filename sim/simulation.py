@@ -15,6 +15,7 @@ import pybullet as pb
 from shared.config import FleetConfig
 from shared.site import Site
 from sim.doors import DoorLeaf, LiftBody
+from sim.pedestrians import Pedestrian
 from sim.robot import Chair, ChairState, WheelOdometry
 from sim.sensors import PlanarLidar
 from sim.world import World
@@ -50,7 +51,14 @@ class Simulation:
                 self.world.add_floor(f.map, f.elevation, cfg.planner.unknown_is_occupied)
         self.rng = np.random.default_rng(sim.seed)
         start = ChairState(x, y, theta)
-        self.chair = Chair(robot, start, sim.motor_lag_s, sim.watchdog_s)
+        self.chair = Chair(
+            robot,
+            start,
+            sim.motor_lag_s,
+            sim.watchdog_s,
+            sim.caster_disturbance,
+            np.random.default_rng([sim.seed, 2]),
+        )
         odo_rng = np.random.default_rng([sim.seed, 1])  # its own stream: scans do not shift it
         self.odometry = WheelOdometry(
             ChairState(x, y, theta),
@@ -90,6 +98,17 @@ class Simulation:
             )
             for d in site.doors
         }
+        self.pedestrians = [
+            Pedestrian(
+                self.world.client,
+                p.waypoints,
+                p.speed,
+                p.radius,
+                self.elevations[site.floor(p.floor).name if p.floor else self.floor],
+                p.start_delay_s,
+            )
+            for p in sim.pedestrians
+        ]
         self.lifts = {
             e.id: LiftBody(self.world.client, e, self.elevations)
             for e in getattr(site, "elevators", [])
@@ -136,6 +155,8 @@ class Simulation:
         self.chair.step(self.dt, self.time)
         self.odometry.step(self.state.v, self.state.w, self.dt)
         self._ride()
+        for person in self.pedestrians:
+            person.move_to(self.time + self.dt)
         self.tick += 1
         self.time = self.tick * self.dt
         self._place_body()
