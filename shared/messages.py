@@ -107,16 +107,20 @@ class PointCloud(Msg):
     points: np.ndarray = array("float32", (None, 3))
 
 
-@message("path")
+@message("path", version=2)
 @dataclass
 class Path(Msg):
-    """Waypoints (x, y) on one floor and the reference speed at each (m/s, 0 at the goal)."""
+    """Waypoints (x, y) on one floor and the reference speed at each (m/s, 0 at the goal).
+
+    ``reverse``: drive it backwards (out of a lift car, where the chair cannot turn).
+    """
 
     stamp: float
     path_id: str
     floor: str
     waypoints: np.ndarray = array("float64", (None, 2))
     v_ref: np.ndarray = array("float64", (None,))
+    reverse: bool = False
 
 
 # --------------------------------------------------------------------------------------

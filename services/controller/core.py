@@ -42,15 +42,20 @@ class PathFollower:
         self.cfg = cfg
         self.robot = robot
         self.path_id = ""
+        self.reverse = False
         self._pts = np.zeros((0, 2))
         self._v = np.zeros(0)
         self._s = np.zeros(0)
         self._progress_s = 0.0
         self._arrived = False
 
-    def set_path(self, path_id: str, waypoints: np.ndarray, v_ref: np.ndarray) -> None:
-        """Start following ``waypoints`` (N, 2) with speeds ``v_ref`` (N,)."""
+    def set_path(
+        self, path_id: str, waypoints: np.ndarray, v_ref: np.ndarray, reverse: bool = False
+    ) -> None:
+        """Start following ``waypoints`` (N, 2) with speeds ``v_ref`` (N,), backwards if
+        ``reverse`` (out of a lift car, where the chair cannot turn)."""
         self.path_id = path_id
+        self.reverse = reverse
         self._pts = np.asarray(waypoints, dtype=float)
         self._v = np.asarray(v_ref, dtype=float)
         legs = np.linalg.norm(np.diff(self._pts, axis=0), axis=1) if len(self._pts) else []
@@ -77,6 +82,8 @@ class PathFollower:
             return Command(0.0, 0.0, "arrived", 1.0, to_goal, cross)
         if not pose_fresh:
             return Command(0.0, 0.0, "stale", progress, to_goal, cross)
+        if self.reverse:  # steer the chair's back as if it were its front, then drive backwards
+            theta = _wrap(theta + math.pi)
         target = self._point_at(self._progress_s + self.cfg.lookahead_m)
         if to_goal < self.cfg.lookahead_m:
             target = goal
@@ -86,13 +93,14 @@ class PathFollower:
         if abs(alpha) > TURN_IN_PLACE_RAD:
             w = max(-w_max, min(w_max, self.cfg.heading_gain * alpha))
             return Command(0.0, w, "following", progress, to_goal, cross)
+        v_max = r.max_reverse_speed if self.reverse else r.max_speed
         v_ref = float(np.interp(self._progress_s, self._s, self._v))
-        v_ref = max(v_ref, min(0.1, r.max_speed)) if to_goal > self.cfg.goal_tolerance_m else 0.0
-        v = min(v_ref, r.max_speed) * max(0.0, math.cos(alpha))
+        v_ref = max(v_ref, min(0.1, v_max)) if to_goal > self.cfg.goal_tolerance_m else 0.0
+        v = min(v_ref, v_max) * max(0.0, math.cos(alpha))
         dist = max(float(math.hypot(target[0] - x, target[1] - y)), 1e-6)
         w = 2.0 * v * math.sin(alpha) / dist  # pure-pursuit curvature times speed
         w = max(-w_max, min(w_max, w))
-        return Command(v, w, "following", progress, to_goal, cross)
+        return Command(-v if self.reverse else v, w, "following", progress, to_goal, cross)
 
     def _project(self, p: np.ndarray) -> tuple[float, float]:
         """Arc length of the closest path point at or ahead of current progress, and distance."""

@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> None:
             latest["pose"] = msg
 
         def on_path(msg: Path) -> None:
-            follower.set_path(msg.path_id, msg.waypoints, msg.v_ref)
+            follower.set_path(msg.path_id, msg.waypoints, msg.v_ref, msg.reverse)
             svc.log.info("path %s: %d waypoints", msg.path_id or "(stop)", len(msg.waypoints))
 
         def step(clock: Clock) -> None:

@@ -57,3 +57,21 @@ def test_speed_limits_respected() -> None:
     f.set_path("p", np.array([[0.0, 0.0], [5.0, 2.0]]), np.array([2.0, 0.0]))
     cmd = f.step(0.0, 0.0, 0.3)
     assert cmd.v <= 0.3 and abs(cmd.w) <= 0.5
+
+
+def test_drives_a_path_backwards() -> None:
+    f = PathFollower(ControllerConfig(), RobotConfig())
+    f.set_path("out", np.array([[0.0, 0.0], [-2.0, 0.0]]), np.array([0.2, 0.0]), reverse=True)
+    x, y, th = 0.0, 0.0, 0.0  # facing +x, the path goes to -x: back out
+    speeds = []
+    for _ in range(400):
+        cmd = f.step(x, y, th)
+        if cmd.state == "arrived":
+            break
+        speeds.append(cmd.v)
+        x += cmd.v * 0.04 * np.cos(th)
+        y += cmd.v * 0.04 * np.sin(th)
+        th += cmd.w * 0.04
+    assert cmd.state == "arrived" and abs(x + 2.0) <= 0.15
+    assert max(speeds) <= 0 and min(speeds) >= -RobotConfig().max_reverse_speed
+    assert abs(th) < 0.1  # never turned round
