@@ -34,6 +34,12 @@ def check(rule):
     return {"check": rule}
 
 
+def _one_of(*choices: str):
+    return check(
+        lambda v: None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
+    )
+
+
 @dataclass
 class Footprint:
     """The chair's rectangle around the rear-axle point (the pose reference), metres."""
@@ -118,6 +124,7 @@ class SimConfig:
     realtime_factor: float = field(default=1.0, metadata=check(_non_negative))
     watchdog_s: float = field(default=0.3, metadata=check(_positive))
     motor_lag_s: float = field(default=0.1, metadata=check(_non_negative))
+    lidar: str = field(default="planar", metadata=_one_of("planar", "vlp16"))
     lidar_rate_hz: float = field(default=10.0, metadata=check(_positive))
     lidar_beams: int = field(default=360, metadata=check(_positive))
     lidar_fov_deg: float = field(default=360.0, metadata=check(_positive))
@@ -166,6 +173,7 @@ class LocalisationConfig:
     max_correction_rad: float = field(default=0.3, metadata=check(_positive))
     lost_after_scans: int = field(default=5, metadata=check(_positive))
     match_cutoff_m: float = field(default=0.4, metadata=check(_positive))
+    scan_band_m: float = field(default=0.5, metadata=check(_positive))
 
 
 @dataclass
@@ -189,12 +197,6 @@ class NavigatorConfig:
     door_timeout_s: float = field(default=60.0, metadata=check(_positive))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
-
-
-def _one_of(*choices: str):
-    return check(
-        lambda v: None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
-    )
 
 
 @dataclass

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pybullet as pb
 
-MAX_RAYS_PER_BATCH = 16384  # pybullet's limit for one rayTestBatch call
+MAX_RAYS_PER_BATCH = 16383  # pybullet answers at most 16383 rays per rayTestBatch call
 
 
 class PlanarLidar:

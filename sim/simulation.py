@@ -15,6 +15,7 @@ import pybullet as pb
 from shared.config import FleetConfig
 from shared.site import Site
 from sim.doors import DoorLeaf, LiftBody
+from sim.lidar3d import MultiRingLidar
 from sim.pedestrians import Pedestrian
 from sim.robot import Chair, ChairState, WheelOdometry
 from sim.sensors import PlanarLidar
@@ -88,6 +89,16 @@ class Simulation:
             pb.GEOM_BOX, halfExtents=half, physicsClientId=self.world.client
         )
         self.body = pb.createMultiBody(0, shape, physicsClientId=self.world.client)
+        if sim.lidar == "vlp16":  # 16 rings x 1800 azimuths, grid ray casting
+            self.lidar = MultiRingLidar.for_site(
+                self.world,
+                site,
+                height_m=robot.lidar_height_m,
+                noise_m=sim.lidar_noise_m,
+                rng=self.rng,
+                ignore_ids=[self.body],
+                unknown_is_occupied=cfg.planner.unknown_is_occupied,
+            )
         behaviours = cfg.building.doors
         self.doors = {
             d.id: DoorLeaf(

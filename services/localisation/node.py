@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
 from services.localisation.core import MapLocaliser, MapModeSettings, OdometryLocaliser
 from services.localisation.matcher import DistanceField
 from shared.messages import Clock, Event, Odometry, PointCloud, Pose2D, PoseEstimate
@@ -78,7 +80,10 @@ def main(argv: list[str] | None = None) -> None:
                 loc.update_odometry(odom.pose.x, odom.pose.y, odom.pose.theta)
                 if scan is not None:
                     t0 = time.perf_counter()
-                    loc.update_scan(scan.points)
+                    # a 3-D cloud: keep the band around the sensor's height (walls, not the
+                    # floor returns of the downward rings)
+                    pts = scan.points
+                    loc.update_scan(pts[np.abs(pts[:, 2]) < lc.scan_band_m])
                     state["match_ms"] = 1000 * (time.perf_counter() - t0)
                 lost = loc.lost
             else:

@@ -7,6 +7,7 @@ import importlib
 
 BENCHES = {
     "planner": ("services.planner.bench", "A* vs pyastar2d on 800 x 4000, inflation"),
+    "sim": ("services.sim.bench", "real-time factor with the 3D LiDAR, ray casting per scan"),
 }
 
 
