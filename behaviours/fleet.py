@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
-from shared.messages import FollowStatus, Path, Pose2D, PoseEstimate, RouteReply
+from shared.messages import FollowStatus, LiftState, Path, Pose2D, PoseEstimate, RouteReply
 
 
 class Fleet(Protocol):
@@ -40,3 +40,18 @@ class Fleet(Protocol):
 
     def request_door(self, door_id: str, mode: int) -> None:
         """Ask the building to open or close ``door_id`` (a DoorMode value)."""
+
+    def lift_state(self, lift_id: str) -> LiftState | None:
+        """The building's last LiftState of ``lift_id``."""
+
+    def session_id(self) -> str:
+        """This chair's lift session id."""
+
+    def request_lift(self, lift_id: str, floor: str) -> None:
+        """Hold a session on ``lift_id`` and send its car to ``floor``, doors to open there."""
+
+    def release_lift(self, lift_id: str) -> None:
+        """End this chair's session on ``lift_id``."""
+
+    def set_floor(self, floor: str) -> None:
+        """Tell the localisation the chair is now on ``floor`` (same x, y, heading)."""

@@ -27,6 +27,7 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
+from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import Fleet
 from behaviours.timeouts import Timeout
 from shared.messages import DoorMode, Path, RouteReply
@@ -118,20 +119,38 @@ class FollowPath(_FleetBehaviour):
 
     phase = "follow"
 
-    def __init__(self, path: Path, name: str = "", phase: str = "follow") -> None:
+    def __init__(
+        self, path: Path, name: str = "", phase: str = "follow", door_id: str = ""
+    ) -> None:
         super().__init__(name or f"Follow {path.path_id}")
         self.path = path
         self.phase = phase
         self.path_id = path.path_id
+        self.door_id = door_id  # passing this door: pause while it is not reported OPEN
         self.sent_at = 0.0
+        self.paused = False
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
         self.sent_at = self.fleet.now()
+        self.paused = False
         self.fleet.send_path(self.path)
         self.feedback_message = f"following {self.path_id}"
 
     def update(self) -> Status:
+        if self.door_id:
+            open_now = self.fleet.door_mode(self.door_id) == DoorMode.OPEN
+            if not open_now and not self.paused:  # the door started to close: stop in it
+                self.fleet.stop()
+                self.paused = True
+            if self.paused:
+                if not open_now:
+                    self.feedback_message = f"door {self.door_id} not open: holding"
+                    return Status.RUNNING
+                self.paused = False
+                self.sent_at = self.fleet.now()
+                self.fleet.send_path(self.path)
+                return Status.RUNNING
         status = self.fleet.follow_status()
         restarted = (
             status is not None
@@ -220,17 +239,6 @@ class WaitForDoorOpen(_FleetBehaviour):
         return Status.RUNNING
 
 
-class Unsupported(_FleetBehaviour):
-    """Always FAILURE with a reason: a checkpoint this navigator cannot handle yet."""
-
-    def __init__(self, name: str, reason: str) -> None:
-        super().__init__(name)
-        self.reason = reason
-
-    def update(self) -> Status:
-        return self.fail(self.reason)
-
-
 def _timeouts() -> Callable[[str], None]:
     bb = py_trees.blackboard.Client(name="MissionTimeouts", namespace=NS)
     bb.register_key("failure", access=Access.WRITE)
@@ -271,54 +279,133 @@ def straight_path(
     return Path(0.0, path_id, floor, pts, v)
 
 
+def _door_steps(
+    cp, i: int, route_id: str, clock, record, door_timeout_s: float, door_speed: float
+) -> py_trees.behaviour.Behaviour:
+    through = straight_path(
+        f"{route_id}.door{i}",
+        cp.floor,
+        (cp.approach.x, cp.approach.y),
+        (cp.exit.x, cp.exit.y),
+        door_speed,
+    )
+    steps: list[py_trees.behaviour.Behaviour] = []
+    if cp.door_type == "powered":
+        steps.append(RequestDoor(cp.id, DoorMode.OPEN))
+    steps += [
+        Timeout(
+            f"Door {cp.id} wait",
+            WaitForDoorOpen(cp.id),
+            door_timeout_s,
+            clock,
+            _blocking(record, cp.id),
+        ),
+        Timeout(
+            f"Door {cp.id} pass",
+            FollowPath(through, f"Pass {cp.id}", "door", door_id=cp.id),
+            max(10.0, 4 * cp.pass_distance_m / door_speed),
+            clock,
+            record,
+        ),
+    ]
+    if cp.door_type == "powered":
+        steps.append(RequestDoor(cp.id, DoorMode.CLOSED))
+    return py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=steps)
+
+
+def _elevator_steps(
+    cp,
+    i: int,
+    route_id: str,
+    clock,
+    record,
+    lift_timeout_s: float,
+    door_speed: float,
+    centre_offset_m: float,
+) -> py_trees.behaviour.Behaviour:
+    """Call the car, drive in, ride, switch floor, back out, release (the seed's phases)."""
+    heading = np.array([np.cos(cp.approach.theta), np.sin(cp.approach.theta)])
+    start = np.array([cp.approach.x, cp.approach.y])
+    inside = start + heading * (cp.pass_distance_m - centre_offset_m)
+    out = np.array([cp.exit.x, cp.exit.y])
+    drive_in = straight_path(
+        f"{route_id}.lift{i}.in", cp.floor, tuple(start), tuple(inside), door_speed
+    )
+    back_out = straight_path(
+        f"{route_id}.lift{i}.out", cp.to_floor, tuple(inside), tuple(out), door_speed
+    )
+    back_out.reverse = True
+    blocked = _blocking(record, cp.id)
+    steps = [
+        RequestLift(cp.id, cp.floor),
+        Timeout(
+            f"Lift {cp.id} arrive", WaitForLift(cp.id, cp.floor), lift_timeout_s, clock, blocked
+        ),
+        Timeout(
+            f"Lift {cp.id} enter",
+            FollowPath(drive_in, f"Enter {cp.id}", "elevator"),
+            max(10.0, 4 * cp.pass_distance_m / door_speed),
+            clock,
+            record,
+        ),
+        RequestLift(cp.id, cp.to_floor),
+        Timeout(
+            f"Lift {cp.id} ride", WaitForLift(cp.id, cp.to_floor), lift_timeout_s, clock, record
+        ),
+        SetFloor(cp.id, cp.to_floor),
+        Timeout(
+            f"Lift {cp.id} exit",
+            FollowPath(back_out, f"Exit {cp.id}", "elevator"),
+            max(10.0, 4 * cp.pass_distance_m / door_speed),
+            clock,
+            record,
+        ),
+        ReleaseLift(cp.id),
+    ]
+    return py_trees.composites.Sequence(f"Elevator {cp.id}", memory=True, children=steps)
+
+
+def _blocking(record: Callable[[str], None], checkpoint_id: str) -> Callable[[str], None]:
+    """A timeout callback that also names the checkpoint as blocked (the navigator re-plans)."""
+    bb = py_trees.blackboard.Client(name=f"Blocking {checkpoint_id}", namespace=NS)
+    bb.register_key("blocked", access=Access.WRITE)
+
+    def on_timeout(reason: str) -> None:
+        record(reason)
+        bb.blocked = checkpoint_id
+
+    return on_timeout
+
+
 def create_route_tree(
     route: RouteReply,
     clock: Callable[[], float],
     follow_timeout_s: float,
     door_timeout_s: float,
     door_speed: float,
+    lift_timeout_s: float = 120.0,
+    centre_offset_m: float = 0.205,
 ) -> py_trees.behaviour.Behaviour:
-    """The second tree of a mission: drive the route's legs and pass its checkpoints in order."""
+    """The second tree of a mission: drive the route's legs and pass its checkpoints in order.
+
+    ``centre_offset_m`` is how far the footprint's centre lies ahead of the pose reference
+    point (rear axle), so the chair stops with its body centred in a lift car.
+    """
     record = _timeouts()
+    route_id = route.path.path_id if route.path is not None else "route"
     steps: list[py_trees.behaviour.Behaviour] = []
     for i, leg in enumerate(route.legs):
         steps.append(Timeout(f"Leg {i} timeout", FollowPath(leg), follow_timeout_s, clock, record))
         if i >= len(route.checkpoints):
             continue
         cp = route.checkpoints[i]
-        if cp.kind != "door":
+        if cp.kind == "door":
+            steps.append(_door_steps(cp, i, route_id, clock, record, door_timeout_s, door_speed))
+        else:
             steps.append(
-                Unsupported(
-                    f"Elevator {cp.id}",
-                    f"elevator rides are not handled by this navigator yet "
-                    f"({cp.id}, floor {cp.floor} -> {cp.to_floor})",
+                _elevator_steps(
+                    cp, i, route_id, clock, record, lift_timeout_s, door_speed, centre_offset_m
                 )
             )
-            break
-        through = straight_path(
-            f"{route.path.path_id}.door{i}",
-            cp.floor,
-            (cp.approach.x, cp.approach.y),
-            (cp.exit.x, cp.exit.y),
-            door_speed,
-        )
-        door_steps: list[py_trees.behaviour.Behaviour] = []
-        if cp.door_type == "powered":
-            door_steps.append(RequestDoor(cp.id, DoorMode.OPEN))
-        door_steps += [
-            Timeout(f"Door {cp.id} wait", WaitForDoorOpen(cp.id), door_timeout_s, clock, record),
-            Timeout(
-                f"Door {cp.id} pass",
-                FollowPath(through, f"Pass {cp.id}", "door"),
-                max(10.0, 4 * cp.pass_distance_m / door_speed),
-                clock,
-                record,
-            ),
-        ]
-        if cp.door_type == "powered":
-            door_steps.append(RequestDoor(cp.id, DoorMode.CLOSED))
-        steps.append(
-            py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=door_steps)
-        )
     drive = py_trees.composites.Sequence("Drive", memory=True, children=steps)
     return py_trees.composites.Selector("Route", memory=True, children=[drive, _safe_stop()])

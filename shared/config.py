@@ -184,6 +184,8 @@ class ControllerConfig:
     lookahead_m: float = field(default=0.6, metadata=check(_positive))
     heading_gain: float = field(default=2.0, metadata=check(_positive))
     goal_tolerance_m: float = field(default=0.15, metadata=check(_positive))
+    start_align_deg: float = field(default=5.0, metadata=check(_positive))
+    start_align_m: float = field(default=0.3, metadata=check(_non_negative))
     pose_timeout_s: float = field(default=0.5, metadata=check(_positive))
 
 
@@ -195,6 +197,8 @@ class NavigatorConfig:
     plan_timeout_s: float = field(default=10.0, metadata=check(_positive))
     follow_timeout_s: float = field(default=600.0, metadata=check(_positive))
     door_timeout_s: float = field(default=60.0, metadata=check(_positive))
+    lift_timeout_s: float = field(default=120.0, metadata=check(_positive))
+    max_replans: int = field(default=3, metadata=check(_non_negative))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
 
@@ -211,7 +215,7 @@ class DoorEvent:
 class DoorBehaviour:
     """How the building emulator plays one door (scenarios set these per door id)."""
 
-    motion: str = field(default="hinged", metadata=_one_of("hinged", "sliding"))
+    motion: str = field(default="sliding", metadata=_one_of("hinged", "sliding"))
     start_open: bool = False
     schedule: list[DoorEvent] = field(default_factory=list)
     fault: str = field(

@@ -268,14 +268,16 @@ class BuildingBodies(Msg):
     )
 
 
-@message("route_request")
+@message("route_request", version=2)
 @dataclass
 class RouteRequest(Msg):
-    """Ask the planner for a route from ``start`` to ``goal`` or to the named ``place``."""
+    """Ask the planner for a route from ``start`` to ``goal`` or to the named ``place``,
+    avoiding the doors and lifts named in ``avoid`` (ones that failed this mission)."""
 
     start: Pose2D
     goal: Pose2D | None = None
     place: str = ""
+    avoid: list[str] = field(default_factory=list)
 
 
 @message("checkpoint")

@@ -1,6 +1,7 @@
-"""Sites: a building's floor maps (ROS map_server format) and its doors and named places.
+"""Sites: a building's floor maps (ROS map_server format), doors, elevators and named places.
 
-A site is a folder with a ``site.yaml`` (floors, doors, places; see docs/site-format.md)
+A site is a folder with a ``site.yaml`` (floors, doors, places, elevators; see
+docs/site-format.md)
 or a plain map_server YAML; both load into a :class:`Site`. Maps are read exactly as
 map_server reads them (trinary, scale or raw mode, ``negate``, thresholds, alpha =
 unknown), and stored with row 0 at the bottom so that cell ``(row, col)`` has its centre
@@ -82,6 +83,65 @@ class Place:
     theta: float = 0.0
 
 
+Segment = tuple[tuple[float, float], tuple[float, float]]
+
+
+@dataclass
+class Elevator:
+    """A lift car: its centre and size on the map and its door segment on each floor served.
+
+    ``theta`` is the heading that points out of the car through its door; the car has the
+    same ``x, y`` on every floor it serves.
+    """
+
+    id: str
+    floors: list[str]
+    x: float
+    y: float
+    theta: float
+    width: float
+    depth: float
+    doors: dict[str, Segment]
+
+    def serves(self, floor: str) -> bool:
+        return floor in self.floors
+
+    def door(self, floor: str) -> Segment:
+        """The car door segment (p1, p2) on ``floor``; SiteError if the lift does not stop there."""
+        if floor not in self.doors:
+            raise SiteError(
+                f"elevator {self.id}: does not serve floor {floor!r} "
+                f"(floors: {', '.join(self.floors)})"
+            )
+        return self.doors[floor]
+
+    def door_centre(self, floor: str) -> tuple[float, float]:
+        """Middle of the car door segment on ``floor``."""
+        (x1, y1), (x2, y2) = self.door(floor)
+        return (x1 + x2) / 2.0, (y1 + y2) / 2.0
+
+    def door_normal(self, floor: str) -> tuple[float, float]:
+        """Unit normal of the car door on ``floor``, pointing out of the car."""
+        (x1, y1), (x2, y2) = self.door(floor)
+        length = math.hypot(x2 - x1, y2 - y1)
+        nx, ny = -(y2 - y1) / length, (x2 - x1) / length
+        cx, cy = self.door_centre(floor)
+        side = (cx - self.x) * nx + (cy - self.y) * ny
+        if abs(side) < 1e-9:  # car centre on the door line: trust theta
+            side = math.cos(self.theta) * nx + math.sin(self.theta) * ny
+        return (nx, ny) if side >= 0 else (-nx, -ny)
+
+    def entry_pose(self, floor: str, standoff_m: float = 1.0) -> tuple[float, float, float]:
+        """The pose ``standoff_m`` outside the car door on its normal, facing into the car."""
+        cx, cy = self.door_centre(floor)
+        nx, ny = self.door_normal(floor)
+        return cx + nx * standoff_m, cy + ny * standoff_m, math.atan2(-ny, -nx)
+
+    def inside_pose(self) -> tuple[float, float, float]:
+        """The car centre, facing out through the door."""
+        return self.x, self.y, self.theta
+
+
 @dataclass
 class Floor:
     name: str
@@ -99,6 +159,7 @@ class Site:
     floors: dict[str, Floor]
     doors: list[Door] = field(default_factory=list)
     places: dict[str, Place] = field(default_factory=dict)
+    elevators: list[Elevator] = field(default_factory=list)
 
     @property
     def default_floor(self) -> str:
@@ -128,6 +189,14 @@ class Site:
             known = ", ".join(self.places) or "none"
             raise SiteError(f"site {self.name}: no place {name!r} (places: {known})")
         return self.places[name]
+
+    def elevator(self, id: str) -> Elevator:
+        """The elevator called ``id``; SiteError if there is none."""
+        for lift in self.elevators:
+            if lift.id == id:
+                return lift
+        known = ", ".join(lift.id for lift in self.elevators) or "none"
+        raise SiteError(f"site {self.name}: no elevator {id!r} (elevators: {known})")
 
 
 # --------------------------------------------------------------------------------------
@@ -241,7 +310,10 @@ def _parse_site(path: Path, data: dict) -> Site:
             _point(_need(d, "p1", where), f"{where}.p1"),
             _point(_need(d, "p2", where), f"{where}.p2"),
         )
-        doors.append(Door(str(_need(d, "id", where)), floor, p1, p2, kind))
+        door_id = str(_need(d, "id", where))
+        if any(door.id == door_id for door in doors):
+            raise SiteError(f"{where}.id: duplicate door id {door_id!r}")
+        doors.append(Door(door_id, floor, p1, p2, kind))
     places = {}
     for name, p in (data.get("places") or {}).items():
         where = f"{path}: places.{name}"
@@ -255,7 +327,84 @@ def _parse_site(path: Path, data: dict) -> Site:
             float(_need(p, "y", where)),
             float(p.get("theta", 0.0)),
         )
-    return Site(str(data.get("name", path.parent.name)), path.parent, floors, doors, places)
+    elevators = _parse_elevators(path, data.get("elevators"), floors)
+    name = str(data.get("name", path.parent.name))
+    return Site(name, path.parent, floors, doors, places, elevators)
+
+
+_ELEVATOR_KEYS = ("id", "floors", "car", "doors")
+_CAR_KEYS = ("x", "y", "theta", "width", "depth")
+
+
+def _parse_elevators(path: Path, raw, floors: dict[str, Floor]) -> list[Elevator]:
+    """The ``elevators:`` list, checked against the site's floors."""
+    if raw is None:
+        return []
+    if not isinstance(raw, list):
+        raise SiteError(f"{path}: elevators: expected a list, got {type(raw).__name__}")
+    lifts: list[Elevator] = []
+    for i, e in enumerate(raw):
+        where = f"{path}: elevators[{i}]"
+        if not isinstance(e, dict):
+            raise SiteError(f"{where}: expected a mapping, got {e!r}")
+        _no_unknown(e, _ELEVATOR_KEYS, where)
+        lift_id = str(_need(e, "id", where))
+        if any(lift.id == lift_id for lift in lifts):
+            raise SiteError(f"{where}.id: duplicate elevator id {lift_id!r}")
+        served = _need(e, "floors", where)
+        if not isinstance(served, list) or not served:
+            raise SiteError(f"{where}.floors: expected a non-empty list, got {served!r}")
+        served = [str(f) for f in served]
+        for f in served:
+            if f not in floors:
+                raise SiteError(f"{where}.floors: no floor {f!r}")
+        if len(set(served)) != len(served):
+            raise SiteError(f"{where}.floors: a floor is listed twice in {served}")
+        car = _need(e, "car", where)
+        if not isinstance(car, dict):
+            raise SiteError(f"{where}.car: expected a mapping, got {car!r}")
+        _no_unknown(car, _CAR_KEYS, f"{where}.car")
+        x, y = (_number(_need(car, k, f"{where}.car"), f"{where}.car.{k}") for k in ("x", "y"))
+        theta = _number(car.get("theta", 0.0), f"{where}.car.theta")
+        width, depth = (
+            _number(_need(car, k, f"{where}.car"), f"{where}.car.{k}") for k in ("width", "depth")
+        )
+        for key, value in (("width", width), ("depth", depth)):
+            if value <= 0:
+                raise SiteError(f"{where}.car.{key}: must be > 0, got {value!r}")
+        doors = _need(e, "doors", where)
+        if not isinstance(doors, dict):
+            raise SiteError(f"{where}.doors: expected a mapping floor -> {{p1, p2}}")
+        segments: dict[str, Segment] = {}
+        for f, d in doors.items():
+            dwhere = f"{where}.doors.{f}"
+            if str(f) not in served:
+                raise SiteError(f"{dwhere}: elevator {lift_id} does not serve floor {str(f)!r}")
+            if not isinstance(d, dict):
+                raise SiteError(f"{dwhere}: expected {{p1: [x, y], p2: [x, y]}}, got {d!r}")
+            _no_unknown(d, ("p1", "p2"), dwhere)
+            p1 = _point(_need(d, "p1", dwhere), f"{dwhere}.p1")
+            p2 = _point(_need(d, "p2", dwhere), f"{dwhere}.p2")
+            if p1 == p2:
+                raise SiteError(f"{dwhere}: p1 and p2 are the same point {list(p1)}")
+            segments[str(f)] = (p1, p2)
+        for f in served:
+            if f not in segments:
+                raise SiteError(f"{where}.doors: no door for served floor {f!r}")
+        lifts.append(Elevator(lift_id, served, x, y, theta, width, depth, segments))
+    return lifts
+
+
+def _no_unknown(d: dict, known: tuple[str, ...], where: str) -> None:
+    unknown = sorted(str(k) for k in set(d) - set(known))
+    if unknown:
+        raise SiteError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(known)})")
+
+
+def _number(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SiteError(f"{where}: expected a number, got {value!r}")
+    return float(value)
 
 
 def _need(d: dict, key: str, where: str):

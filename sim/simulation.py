@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as pb
 
-from shared.config import FleetConfig
+from shared.config import DoorBehaviour, FleetConfig
 from shared.site import Site
 from sim.doors import DoorLeaf, LiftBody
 from sim.lidar3d import MultiRingLidar
@@ -104,7 +104,7 @@ class Simulation:
             d.id: DoorLeaf(
                 self.world.client,
                 d,
-                behaviours[d.id].motion if d.id in behaviours else "hinged",
+                behaviours[d.id].motion if d.id in behaviours else DoorBehaviour().motion,
                 self.elevations[d.floor],
             )
             for d in site.doors
@@ -127,6 +127,11 @@ class Simulation:
         for d in site.doors:  # as the building emulator will start them
             if d.id in self.doors and cfg.building.starts_open(d.id, d.type):
                 self.doors[d.id].set_opening(1.0)
+        self._labels = {leaf.body: f"door {name}" for name, leaf in self.doors.items()}
+        for name, lift in self.lifts.items():
+            self._labels.update({leaf.body: f"{name} car door" for leaf in lift.leaves.values()})
+        self._labels.update({p.body: f"pedestrian {i}" for i, p in enumerate(self.pedestrians)})
+        self.nearest = ""
         self.collisions = 0
         self.in_collision = False
         self.clearance = math.inf
@@ -217,13 +222,15 @@ class Simulation:
         lo = [lo[0] - CLEARANCE_RANGE_M, lo[1] - CLEARANCE_RANGE_M, lo[2]]
         hi = [hi[0] + CLEARANCE_RANGE_M, hi[1] + CLEARANCE_RANGE_M, hi[2]]
         near = pb.getOverlappingObjects(lo, hi, physicsClientId=client) or []
-        best = math.inf
+        best, nearest = math.inf, None
         for body, _link in near:
             if body == self.body:
                 continue
             pts = pb.getClosestPoints(self.body, body, CLEARANCE_RANGE_M, physicsClientId=client)
             for p in pts:
-                best = min(best, p[8])
+                if p[8] < best:
+                    best, nearest = p[8], body
+        self.nearest = self._labels.get(nearest, "wall") if nearest is not None else ""
         self.clearance = best
         self.min_clearance = min(self.min_clearance, best)
         self.in_collision = best <= 0.0

@@ -90,7 +90,9 @@ class PathFollower:
         alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - theta)
         r = self.robot
         w_max = r.max_turn_rate
-        if abs(alpha) > TURN_IN_PLACE_RAD:
+        starting = self._progress_s < self.cfg.start_align_m
+        limit = math.radians(self.cfg.start_align_deg) if starting else TURN_IN_PLACE_RAD
+        if abs(alpha) > limit:  # face the path before setting off (doors, lift cars)
             w = max(-w_max, min(w_max, self.cfg.heading_gain * alpha))
             return Command(0.0, w, "following", progress, to_goal, cross)
         v_max = r.max_reverse_speed if self.reverse else r.max_speed

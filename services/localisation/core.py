@@ -59,6 +59,7 @@ class MapModeSettings:
     max_correction_rad: float = 0.3
     lost_after_scans: int = 5
     cutoff_m: float = 0.4
+    prior_weight: float = 20.0
 
 
 class MapLocaliser:
@@ -110,7 +111,9 @@ class MapLocaliser:
     def update_scan(self, points: np.ndarray) -> bool:
         """Match a scan (N, 2+) in the sensor frame; True if the pose was corrected."""
         s = self.settings
-        m = match_scan(self.field, points, self.pose, cutoff_m=s.cutoff_m)
+        m = match_scan(
+            self.field, points, self.pose, cutoff_m=s.cutoff_m, prior_weight=s.prior_weight
+        )
         x, y, th = self.pose
         jump = math.hypot(m.x - x, m.y - y)
         turn = abs(math.atan2(math.sin(m.theta - th), math.cos(m.theta - th)))

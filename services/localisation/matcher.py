@@ -79,11 +79,19 @@ def match_scan(
     cutoff_m: float = 0.4,
     inlier_m: float = 0.1,
     iterations: int = 15,
+    prior_weight: float = 0.0,
 ) -> Match:
-    """Refine ``guess`` so the scan ``points`` (N, 2, sensor frame) fall on the walls."""
+    """Refine ``guess`` so the scan ``points`` (N, 2, sensor frame) fall on the walls.
+
+    With ``prior_weight`` > 0 the guess (the odometry's prediction) is also a prior of that
+    weight per unit (m or rad) squared: where the walls constrain the pose (hundreds of
+    points) they win; along a featureless corridor, where they do not, the pose stays
+    with the odometry instead of sliding along it. 0 = no prior (initialisation).
+    """
     x, y, th = guess
+    prior = np.eye(3) * max(prior_weight, 1e-6)
     pts = np.asarray(points, dtype=np.float64)[:, :2]
-    h = np.eye(3) * 1e-6
+    h = prior
     it = 0
     for it in range(1, iterations + 1):  # noqa: B007 (the count is reported)
         c, s = math.cos(th), math.sin(th)
@@ -101,8 +109,9 @@ def match_scan(
         jac = np.stack([gx, gy, dth], axis=1)[use]
         r = d[use]
         w = 1.0 / (1.0 + (r / (0.5 * inlier_m)) ** 2)
-        h = (jac * w[:, None]).T @ jac + np.eye(3) * 1e-6
-        step = np.linalg.solve(h, -(jac * w[:, None]).T @ r)
+        h = (jac * w[:, None]).T @ jac + prior
+        offset = np.array([x - guess[0], y - guess[1], th - guess[2]])
+        step = np.linalg.solve(h, -(jac * w[:, None]).T @ r - prior @ offset)
         step[:2] = np.clip(step[:2], -0.2, 0.2)
         step[2] = max(-0.1, min(0.1, step[2]))
         x, y, th = x + step[0], y + step[1], th + step[2]

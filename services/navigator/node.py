@@ -17,10 +17,16 @@ from py_trees.common import Access, Status
 from behaviours.mission import NS, create_plan_tree, create_route_tree
 from shared.lockstep import Participant
 from shared.messages import (
+    Availability,
     Clock,
     DoorRequest,
     DoorState,
+    Event,
     FollowStatus,
+    LiftDoor,
+    LiftRequest,
+    LiftRequestType,
+    LiftState,
     NavGoal,
     NavStatus,
     Path,
@@ -48,6 +54,9 @@ class ZenohFleet:
         self._pose: PoseEstimate | None = None
         self._follow: FollowStatus | None = None
         self._doors: dict[str, int] = {}
+        self._lifts: dict[str, LiftState] = {}
+        self.avoid: set[str] = set()
+        self.session = ""
 
     def now(self) -> float:
         return self.clock.stamp if self.clock else 0.0
@@ -66,7 +75,7 @@ class ZenohFleet:
             if self.participant is not None:
                 self.participant.release()
 
-        req = RouteRequest(start=self._pose.pose, goal=goal, place=place)
+        req = RouteRequest(start=self._pose.pose, goal=goal, place=place, avoid=list(self.avoid))
         self.bus.request(self.keys.route, req, RouteReply, self.route_timeout_s, done)
 
     def send_path(self, path: Path) -> None:
@@ -94,6 +103,36 @@ class ZenohFleet:
     def door_mode(self, door_id: str) -> int | None:
         return self._doors.get(door_id)
 
+    def on_lift_state(self, msg: LiftState) -> None:
+        self._lifts[msg.lift_name] = msg
+
+    def lift_state(self, lift_id: str) -> LiftState | None:
+        return self._lifts.get(lift_id)
+
+    def session_id(self) -> str:
+        return self.session
+
+    def request_lift(self, lift_id: str, floor: str) -> None:
+        req = LiftRequest(
+            self.now(), lift_id, self.session, LiftRequestType.AGV_MODE, floor, LiftDoor.OPEN
+        )
+        self.bus.publish(self.keys.key("lift_request", lift=lift_id), req)
+
+    def release_lift(self, lift_id: str) -> None:
+        req = LiftRequest(
+            self.now(), lift_id, self.session, LiftRequestType.END_SESSION, "", LiftDoor.CLOSED
+        )
+        self.bus.publish(self.keys.key("lift_request", lift=lift_id), req)
+
+    def set_floor(self, floor: str) -> None:
+        if self._pose is None:
+            return
+        p = self._pose.pose
+        pose = Pose2D(p.x, p.y, p.theta, floor)
+        self.bus.publish(
+            self.keys.initial_pose, PoseEstimate(self.now(), pose, self._pose.covariance)
+        )
+
     def request_door(self, door_id: str, mode: int) -> None:
         req = DoorRequest(self.now(), self.keys.robot, door_id, mode)
         self.bus.publish(self.keys.key("door_request", door=door_id), req)
@@ -111,7 +150,7 @@ class Navigator:
         self._last_sent: tuple | None = None
         self._last_sent_at = -1e9
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
-        for key in ("goal", "place", "failure", "phase", "route"):
+        for key in ("goal", "place", "failure", "phase", "route", "blocked"):
             self.bb.register_key(key, access=Access.WRITE)
         self.stage = "plan"
 
@@ -128,6 +167,10 @@ class Navigator:
         if self.tree is not None and self.status.state == "running":
             self.tree.interrupt()
         self.bb.goal, self.bb.place, self.bb.failure, self.bb.phase = msg.goal, msg.place, "", ""
+        self.bb.blocked = ""
+        self.fleet.avoid.clear()
+        self.fleet.session = f"{self.svc.keys.robot}-{msg.goal_id}"
+        self.replans = 0
         self.stage = "plan"
         self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
@@ -148,6 +191,7 @@ class Navigator:
             if result == Status.SUCCESS and self.stage == "plan":
                 self.stage = "route"
                 c = self.cfg
+                fp = self.svc.cfg.robot.footprint
                 self._grow(
                     create_route_tree(
                         self.bb.route,
@@ -155,11 +199,15 @@ class Navigator:
                         c.follow_timeout_s,
                         c.door_timeout_s,
                         self.svc.cfg.planner.door_speed,
+                        c.lift_timeout_s,
+                        (fp.front - fp.rear) / 2,
                     )
                 )
                 self._set("running", phase="follow", action="navigate")
             elif result == Status.SUCCESS:
                 self._set("succeeded", reason="arrived")
+            elif result == Status.FAILURE and self._replan():
+                pass
             elif result == Status.FAILURE:
                 self._set("failed", reason=self.bb.failure or "mission failed")
             else:
@@ -171,6 +219,41 @@ class Navigator:
                     reason=tip.feedback_message if tip else "",
                 )
         self._publish(clock.stamp)
+
+    def _replan(self) -> bool:
+        """After a door or lift failed: avoid it and plan again (bounded). False if not."""
+        blocked = self.bb.blocked
+        if self.stage != "route" or not blocked or self.replans >= self.cfg.max_replans:
+            return False
+        self.replans += 1
+        self.fleet.avoid.add(blocked)
+        self.svc.log.warning(
+            "%s failed (%s): planning around it (re-plan %d of %d)",
+            blocked,
+            self.bb.failure,
+            self.replans,
+            self.cfg.max_replans,
+        )
+        self.svc.bus.publish(
+            self.svc.keys.key("events", source=NAME),
+            Event(
+                self.fleet.now(),
+                NAME,
+                "fallback",
+                f"avoiding {blocked}: {self.bb.failure}",
+                "warning",
+            ),
+        )
+        self.svc.bus.publish(
+            self.svc.keys.planner_updates,
+            Availability(self.fleet.now(), blocked, False, self.bb.failure),
+        )
+        self.bb.blocked = ""
+        self.bb.failure = ""
+        self.stage = "plan"
+        self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
+        self._set("running", phase="plan", action="re-plan")
+        return True
 
     def _set(self, state: str, **fields) -> None:
         s = self.status
@@ -211,6 +294,9 @@ def main(argv: list[str] | None = None) -> None:
         bus.subscribe(svc.declare("subscribes", keys.nav_goal), NavGoal, nav.on_goal)
         bus.subscribe(
             svc.declare("subscribes", keys.key("door_state")), DoorState, fleet.on_door_state
+        )
+        bus.subscribe(
+            svc.declare("subscribes", keys.key("lift_state")), LiftState, fleet.on_lift_state
         )
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.path)

@@ -75,7 +75,12 @@ def main(argv: list[str] | None = None) -> None:
             goal_floor = req.goal.floor if req.goal is not None else ""
             try:
                 route = routes.request(
-                    (req.start.x, req.start.y), req.start.floor, goal, goal_floor, req.place
+                    (req.start.x, req.start.y),
+                    req.start.floor,
+                    goal,
+                    goal_floor,
+                    req.place,
+                    req.avoid,
                 )
             except PlanError as exc:
                 svc.log.warning("route refused (%s): %s", exc.code, exc)

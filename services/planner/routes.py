@@ -119,14 +119,22 @@ class RoutePlanner:
         goal: tuple[float, float] | None,
         goal_floor: str,
         place: str = "",
+        avoid: list[str] = (),
     ) -> Route:
-        """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed)."""
+        """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed),
+        treating the doors and lifts in ``avoid`` as unavailable for this request."""
         if place:
             gx, gy, _theta, goal_floor = self.planner.resolve_place(place)
             goal = (gx, gy)
         elif goal is None:
             raise errors.BadRequest("route request has neither goal nor place")
-        return self.route(start, start_floor, goal, goal_floor)
+        saved = (set(self.blocked_doors), set(self.unavailable_lifts))
+        try:
+            for name in avoid:
+                self.set_door_blocked(name, True)
+            return self.route(start, start_floor, goal, goal_floor)
+        finally:
+            self.blocked_doors, self.unavailable_lifts = saved
 
     def route(
         self,

@@ -7,6 +7,7 @@ commands; the chair's watchdog stops it when they stop coming.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -115,7 +116,15 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
         events_key = keys.key("events", source=NAME)
         if result.new_collision:
             bus.publish(
-                events_key, Event(stamp, NAME, "collision", f"at ({s.x:.2f}, {s.y:.2f})", "error")
+                events_key,
+                Event(
+                    stamp,
+                    NAME,
+                    "collision",
+                    f"with {sim.nearest} at ({s.x:.2f}, {s.y:.2f}, "
+                    f"{math.degrees(s.theta):.0f} deg)",
+                    "error",
+                ),
             )
         for text in result.events:
             bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))

@@ -11,6 +11,9 @@ from shared.messages import (
     Checkpoint,
     DoorMode,
     FollowStatus,
+    LiftDoor,
+    LiftMotion,
+    LiftState,
     Path,
     Pose2D,
     PoseEstimate,
@@ -29,6 +32,10 @@ class ScriptedFleet:
         self.follow: FollowStatus | None = None
         self.doors: dict[str, int] = {}
         self.door_requests: list[tuple[str, int]] = []
+        self.lifts: dict[str, LiftState] = {}
+        self.lift_requests: list[tuple[str, str]] = []
+        self.released: list[str] = []
+        self.floor: str | None = None
 
     def now(self) -> float:
         return self.t
@@ -55,6 +62,21 @@ class ScriptedFleet:
     def request_door(self, door_id: str, mode: int) -> None:
         self.door_requests.append((door_id, mode))
 
+    def lift_state(self, lift_id: str):
+        return self.lifts.get(lift_id)
+
+    def session_id(self) -> str:
+        return "s1"
+
+    def request_lift(self, lift_id: str, floor: str) -> None:
+        self.lift_requests.append((lift_id, floor))
+
+    def release_lift(self, lift_id: str) -> None:
+        self.released.append(lift_id)
+
+    def set_floor(self, floor: str) -> None:
+        self.floor = floor
+
     def arrive(self) -> None:
         self.follow = FollowStatus(self.t, self.sent[-1].path_id, "arrived", 1.0, 0.0, 0.0)
 
@@ -67,7 +89,7 @@ def grow(root, fleet):
 
 def blackboard():
     bb = py_trees.blackboard.Client(name="test", namespace="/mission")
-    for key in ("goal", "place", "failure", "phase", "route"):
+    for key in ("goal", "place", "failure", "phase", "route", "blocked"):
         bb.register_key(key, access=py_trees.common.Access.WRITE)
     bb.goal, bb.place, bb.failure, bb.phase = None, "room_b", "", ""
     return bb
@@ -173,15 +195,58 @@ def test_powered_door_is_requested_open_then_released() -> None:
     assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED)
 
 
-def test_elevator_checkpoint_fails_with_a_reason() -> None:
-    bb = blackboard()
-    fleet = ScriptedFleet(None)
-    lift = Checkpoint(
-        "elevator", "lift_a", "1", Pose2D(1, 0, 0), Pose2D(1, 0, 0), 1.5, to_floor="2"
+def lift_at(floor: str, session: str = "s1", mode: int = 2) -> LiftState:
+    return LiftState(
+        0.0, "lift_a", ["1", "2"], floor, floor, LiftDoor.OPEN, LiftMotion.STOPPED, mode, session
     )
-    route = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[lift])
-    tree = grow(create_route_tree(route, fleet.now, 100.0, 60.0, 0.2), fleet)
+
+
+LIFT = Checkpoint(
+    "elevator", "lift_a", "1", Pose2D(1, 0, 0, "1"), Pose2D(1, 0, 0, "2"), 2.6, to_floor="2"
+)
+LIFT_ROUTE = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[LIFT])
+
+
+def test_elevator_ride_follows_the_lift_protocol() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = grow(create_route_tree(LIFT_ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
     tree.tick()
     fleet.arrive()
     tree.tick()
-    assert tree.root.status == Status.FAILURE and "elevator rides" in bb.failure
+    assert fleet.lift_requests == [("lift_a", "1")]
+    fleet.lifts["lift_a"] = lift_at("1", session="someone-else")
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"  # busy: waits
+    fleet.lifts["lift_a"] = lift_at("1")
+    tree.tick()
+    enter = fleet.sent[-1]
+    assert enter.path_id == "r.lift0.in" and not enter.reverse
+    assert np.allclose(enter.waypoints[-1], (1 + 2.6 - 0.205, 0))  # body centred in the car
+    fleet.arrive()
+    tree.tick()
+    assert fleet.lift_requests[-1] == ("lift_a", "2")
+    tree.tick()  # car still reported at floor 1: keeps waiting
+    assert fleet.floor is None
+    fleet.lifts["lift_a"] = lift_at("2")
+    tree.tick()
+    out = fleet.sent[-1]
+    assert fleet.floor == "2" and out.reverse and out.floor == "2"
+    assert np.allclose(out.waypoints[-1], (1, 0))
+    fleet.arrive()
+    tree.tick()
+    assert fleet.released == ["lift_a"] and fleet.sent[-1].path_id == "r.1"
+
+
+def test_lift_out_of_service_fails_and_names_it() -> None:
+    bb = blackboard()
+    bb.blocked = ""
+    fleet = ScriptedFleet(None)
+    tree = grow(create_route_tree(LIFT_ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree.tick()
+    fleet.arrive()
+    fleet.lifts["lift_a"] = lift_at("1", session="", mode=4)
+    tree.tick()
+    tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert bb.blocked == "lift_a" and "out of service" in bb.failure

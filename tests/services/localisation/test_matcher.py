@@ -41,7 +41,9 @@ def test_localiser_corrects_drift_and_flags_lost() -> None:
     loc = MapLocaliser(FIELD, 3.0, 1.8, 0.4, "1", settings)
     loc.update_odometry(0.0, 0.0, 0.0)
     loc.update_odometry(0.1, 0.0, 0.0)  # odometry says 10 cm forward; the chair did not move
-    assert loc.update_scan(scan_at(3.0, 1.8, 0.4))
+    scan = scan_at(3.0, 1.8, 0.4)
+    assert loc.update_scan(scan)
+    assert loc.update_scan(scan)  # the odometry prior gives way over successive scans
     assert math.hypot(loc.pose[0] - 3.0, loc.pose[1] - 1.8) < 0.02 and not loc.lost
     rng = np.random.default_rng(0)
     junk = np.c_[rng.uniform(-5, 5, (300, 2)), np.zeros(300)]  # matches no wall
@@ -57,3 +59,27 @@ def test_a_map_without_walls_is_refused(tmp_path) -> None:
     grid = load_site(write_map(np.zeros((10, 10), bool), tmp_path, "m")).floor("1").map
     with pytest.raises(ValueError, match="no occupied cell"):
         DistanceField(grid)
+
+
+def test_corridor_does_not_slide_the_pose(tmp_path) -> None:
+    """Along a featureless corridor the walls say nothing about x: keep the odometry's."""
+    from sim.sitegen import draw, write_map
+
+    occ = draw((40.0, 2.4), [(0, 0, 40, 0.2), (0, 2.2, 40, 2.4)])
+    site = load_site(write_map(occ, tmp_path, "corridor"))
+    over = [
+        "sim.start.place=",
+        "sim.start.x=20",
+        "sim.start.y=1.2",
+        "sim.start.theta=0",
+        "sim.lidar_noise_m=0.02",
+        f"site={tmp_path / 'corridor.yaml'}",
+    ]
+    sim = Simulation(load(None, over), site)
+    for _ in range(sim.scan_every):
+        pts = sim.step().scan
+    field = DistanceField(site.floor("1").map)
+    guess = (20.3, 1.25, 0.02)  # odometry 30 cm ahead and a little off
+    m = match_scan(field, pts, guess, prior_weight=20.0)
+    assert abs(m.x - 20.3) < 0.05  # x stays with the odometry
+    assert abs(m.y - 1.2) < 0.02 and abs(m.theta) < math.radians(0.5)  # y, heading corrected

@@ -1,0 +1,109 @@
+"""Elevator behaviours, driven by the building's lift protocol (Open-RMF LiftRequest/State).
+
+The seed typed the floor number on a console; here every step is a request or a state
+the building reports, and every wait sits under a timeout in the tree that uses them.
+"""
+
+from __future__ import annotations
+
+import py_trees
+from py_trees.common import Access, Status
+
+from shared.messages import LiftDoor, LiftMotion
+
+MODE_OFFLINE = 4  # rmf_lift_msgs LiftState.MODE_OFFLINE
+NS = "/mission"
+
+
+class _LiftBehaviour(py_trees.behaviour.Behaviour):
+    """Reaches the fleet through ``setup(fleet=...)``; records failures on the blackboard."""
+
+    def __init__(self, name: str, lift_id: str) -> None:
+        super().__init__(name)
+        self.lift_id = lift_id
+        self.fleet = None
+        self.bb = self.attach_blackboard_client(name=name, namespace=NS)
+        for key in ("phase", "failure", "blocked"):
+            self.bb.register_key(key, access=Access.WRITE)
+
+    def setup(self, **kwargs) -> None:
+        if "fleet" not in kwargs:
+            raise KeyError(f"{self.name}: setup needs fleet=<Fleet>")
+        self.fleet = kwargs["fleet"]
+
+
+class RequestLift(_LiftBehaviour):
+    """Hold a session on the lift and send its car to ``floor`` (doors to open there).
+
+    Always SUCCESS at once; WaitForLift reports whether the building obeyed.
+    """
+
+    def __init__(self, lift_id: str, floor: str) -> None:
+        super().__init__(f"Call {lift_id} to {floor}", lift_id)
+        self.floor = floor
+
+    def update(self) -> Status:
+        self.bb.phase = "elevator"
+        self.fleet.request_lift(self.lift_id, self.floor)
+        self.feedback_message = f"requested floor {self.floor}"
+        return Status.SUCCESS
+
+
+class WaitForLift(_LiftBehaviour):
+    """RUNNING until the car stands at ``floor`` with its doors open for our session.
+
+    FAILURE at once when the building reports the lift out of service (OFFLINE), naming
+    it in ``/mission/blocked`` so the navigator can try another lift. A lift held by
+    another session keeps it RUNNING (busy) until the timeout above it fires.
+    """
+
+    def __init__(self, lift_id: str, floor: str) -> None:
+        super().__init__(f"WaitForLift {lift_id} at {floor}", lift_id)
+        self.floor = floor
+
+    def update(self) -> Status:
+        state = self.fleet.lift_state(self.lift_id)
+        if state is None:
+            self.feedback_message = "no state from the lift yet"
+            return Status.RUNNING
+        if state.current_mode == MODE_OFFLINE:
+            self.bb.blocked = self.lift_id
+            self.bb.failure = f"{self.name}: lift {self.lift_id} is out of service"
+            self.feedback_message = "out of service"
+            return Status.FAILURE
+        ours = state.session_id == self.fleet.session_id()
+        if not ours:
+            self.feedback_message = f"busy (session {state.session_id or 'none'})"
+            return Status.RUNNING
+        ready = (
+            state.current_floor == self.floor
+            and state.door_state == LiftDoor.OPEN
+            and state.motion_state == LiftMotion.STOPPED
+        )
+        self.feedback_message = (
+            "doors open" if ready else (f"car at {state.current_floor}, doors {state.door_state}")
+        )
+        return Status.SUCCESS if ready else Status.RUNNING
+
+
+class SetFloor(_LiftBehaviour):
+    """Tell the localisation the chair is now on ``floor`` (after the ride). SUCCESS at once."""
+
+    def __init__(self, lift_id: str, floor: str) -> None:
+        super().__init__(f"SetFloor {floor}", lift_id)
+        self.floor = floor
+
+    def update(self) -> Status:
+        self.fleet.set_floor(self.floor)
+        return Status.SUCCESS
+
+
+class ReleaseLift(_LiftBehaviour):
+    """End our session on the lift. SUCCESS at once; also sent if the ride is pre-empted."""
+
+    def __init__(self, lift_id: str) -> None:
+        super().__init__(f"Release {lift_id}", lift_id)
+
+    def update(self) -> Status:
+        self.fleet.release_lift(self.lift_id)
+        return Status.SUCCESS
