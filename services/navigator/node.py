@@ -171,6 +171,7 @@ class Navigator:
         self.fleet.avoid.clear()
         self.fleet.session = f"{self.svc.keys.robot}-{msg.goal_id}"
         self.replans = 0
+        self.fallbacks: list[str] = []
         self.stage = "plan"
         self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
@@ -209,7 +210,8 @@ class Navigator:
             elif result == Status.FAILURE and self._replan():
                 pass
             elif result == Status.FAILURE:
-                self._set("failed", reason=self.bb.failure or "mission failed")
+                failure = self.bb.failure or "mission failed"
+                self._set("failed", reason="; then ".join([*self.fallbacks, failure]))
             else:
                 tip = self.tree.tip()
                 self._set(
@@ -248,6 +250,7 @@ class Navigator:
             self.svc.keys.planner_updates,
             Availability(self.fleet.now(), blocked, False, self.bb.failure),
         )
+        self.fallbacks.append(self.bb.failure)
         self.bb.blocked = ""
         self.bb.failure = ""
         self.stage = "plan"

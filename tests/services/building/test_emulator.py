@@ -25,7 +25,7 @@ def test_unscripted_manual_door_stands_open() -> None:
 
 
 def test_scheduled_manual_door_opens_at_its_time() -> None:
-    b = building("building.doors={door_ab: {schedule: [{at_s: 20, action: open}]}}")
+    b = building("building.doors={door_ab: {motion: hinged, schedule: [{at_s: 20, action: open}]}}")
     b.update(19.9)
     assert b.doors["door_ab"].mode() == DoorMode.CLOSED
     b.request_door(5.0, DoorRequest(5.0, "chair1", "door_ab", DoorMode.OPEN))  # ignored: manual
@@ -38,7 +38,12 @@ def test_scheduled_manual_door_opens_at_its_time() -> None:
 def test_automatic_door_follows_the_chair() -> None:
     site = load_site(ROOT / "sites" / "two_rooms")
     site.doors[0] = Door("door_ab", "1", (6.2, 2.2), (6.2, 3.2), "automatic")
-    b = Building(site, load(None, ["building.hold_open_s=3"]).building)
+    b = Building(
+        site,
+        load(
+            None, ["building.hold_open_s=3", "building.doors={door_ab: {motion: hinged}}"]
+        ).building,
+    )
     b.chair(1.0, 2.0, 2.7, "1", 0.5)  # far away, moving
     b.update(2.0)
     assert b.doors["door_ab"].opening == 0.0

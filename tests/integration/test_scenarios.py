@@ -1,0 +1,50 @@
+"""The bundled scenarios end to end: the whole fleet, lockstep, headless."""
+
+from __future__ import annotations
+
+import pytest
+
+from services.mission.core import load_scenario
+from services.mission.node import MissionRun
+from tests.conftest import ROOT
+from tests.integration.test_fleet import Capture
+
+pytestmark = pytest.mark.e2e
+
+
+def run(name: str) -> tuple[dict, str]:
+    out = Capture()
+    report = MissionRun(
+        load_scenario(ROOT / "scenarios" / f"{name}.yaml"), out=out, fleet_output=out
+    ).run()
+    return report, out.text()
+
+
+def test_door_stuck_closed_waits_then_stops_and_says_why() -> None:
+    report, out = run("door_stuck_closed")
+    assert not report["success"] and report["state"] == "failed"
+    # it waited, gave up on the door, looked for another way, found none, and says so
+    assert report["reason"].startswith("WaitForDoorOpen door_ab: timed out after 30 s; then ")
+    assert "NO_PATH" in report["reason"] and "blocked: door_ab" in report["reason"]
+    assert report["collisions"] == 0
+    assert [p["name"] for p in report["phases"]][-2:] == ["door", "plan"]
+    assert "Traceback" not in out
+
+
+def test_two_floors_through_doors_and_a_lift() -> None:
+    report, out = run("two_floors")
+    assert report["success"], (report["reason"], out[-2000:])
+    assert report["collisions"] == 0
+    names = [p["name"] for p in report["phases"]]
+    assert names == ["plan", "follow", "door", "follow", "elevator", "follow", "door", "follow"]
+    loc = report["localisation_error"]
+    assert loc["rms_m"] < 0.05 and loc["rms_deg"] < 1.0
+
+
+def test_lift_out_of_service_uses_the_other_lift() -> None:
+    report, out = run("lift_out_of_service")
+    assert report["success"], (report["reason"], out[-2000:])
+    assert report["collisions"] == 0
+    fallbacks = [e for e in report["events"] if e["kind"] == "fallback"]
+    assert len(fallbacks) == 1 and "lift_b" in fallbacks[0]["detail"]
+    assert "out of service" in fallbacks[0]["detail"]
