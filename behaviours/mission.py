@@ -276,7 +276,7 @@ def straight_path(
     pts = np.linspace(a, b, n)
     v = np.full(n, speed)
     v[-1] = 0.0
-    return Path(0.0, path_id, floor, pts, v)
+    return Path(0.0, path_id, floor, pts, v, precise=True)
 
 
 def _door_steps(

@@ -181,6 +181,13 @@ class ControllerConfig:
     """The path-tracking controller."""
 
     rate_hz: float = field(default=25.0, metadata=check(_positive))
+    mode: str = field(default="mpc", metadata=_one_of("pursuit", "mpc"))
+    mpc_samples: int = field(default=1000, metadata=check(_positive))
+    mpc_steps: int = field(default=21, metadata=check(_positive))
+    mpc_dt: float = field(default=0.2, metadata=check(_positive))
+    mpc_threads: int = field(default=1, metadata=check(_non_negative))
+    obstacle_range_m: float = field(default=4.0, metadata=check(_positive))
+    final_approach_m: float = field(default=0.5, metadata=check(_non_negative))
     lookahead_m: float = field(default=0.6, metadata=check(_positive))
     heading_gain: float = field(default=2.0, metadata=check(_positive))
     goal_tolerance_m: float = field(default=0.15, metadata=check(_positive))

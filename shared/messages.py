@@ -107,12 +107,13 @@ class PointCloud(Msg):
     points: np.ndarray = array("float32", (None, 3))
 
 
-@message("path", version=2)
+@message("path", version=3)
 @dataclass
 class Path(Msg):
     """Waypoints (x, y) on one floor and the reference speed at each (m/s, 0 at the goal).
 
     ``reverse``: drive it backwards (out of a lift car, where the chair cannot turn).
+    ``precise``: a short, straight pass through a door or into a car: track it exactly.
     """
 
     stamp: float
@@ -121,6 +122,7 @@ class Path(Msg):
     waypoints: np.ndarray = array("float64", (None, 2))
     v_ref: np.ndarray = array("float64", (None,))
     reverse: bool = False
+    precise: bool = False
 
 
 # --------------------------------------------------------------------------------------

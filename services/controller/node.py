@@ -1,45 +1,101 @@
 """Controller service: turns the current path and pose into velocity commands.
 
 Steps at ``controller.rate_hz`` of fleet time (a lockstep participant after the
-localisation), publishes a Twist and a FollowStatus every step. A pose older than
-``controller.pose_timeout_s`` gives a zero command.
+localisation), publishes a Twist and a FollowStatus every step. ``controller.mode``
+picks pure pursuit or the sampling MPC (services/controller/tracking.py); the MPC sees
+walls in the floor map and obstacles in the latest LiDAR scan. A pose older than
+``controller.pose_timeout_s`` or flagged lost gives a zero command.
 """
 
 from __future__ import annotations
 
-from services.controller.core import PathFollower
-from shared.messages import Clock, FollowStatus, Path, PoseEstimate, Twist
+import math
+
+import numpy as np
+
+from services.controller.tracking import Tracker
+from shared.messages import Clock, FollowStatus, Odometry, Path, PointCloud, PoseEstimate, Twist
 from shared.service import Service
+from shared.site import SiteError, load_site
 
 NAME = "controller"
+
+
+def scan_to_world(
+    scan: PointCloud, pose: PoseEstimate, band_m: float, range_m: float
+) -> np.ndarray:
+    """Scan points within ``band_m`` of the sensor height and ``range_m`` of it, in the map
+    frame (the floor returns of a 3-D LiDAR are not obstacles)."""
+    pts = scan.points
+    keep = (np.abs(pts[:, 2]) < band_m) & (np.hypot(pts[:, 0], pts[:, 1]) < range_m)
+    pts = pts[keep, :2].astype(np.float64)
+    c, s = math.cos(pose.pose.theta), math.sin(pose.pose.theta)
+    return np.stack(
+        [pose.pose.x + c * pts[:, 0] - s * pts[:, 1], pose.pose.y + s * pts[:, 0] + c * pts[:, 1]],
+        axis=1,
+    )
 
 
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
-        follower = PathFollower(cfg.controller, cfg.robot)
-        latest: dict[str, PoseEstimate] = {}
+        cc = cfg.controller
+        try:
+            site = load_site(cfg.site) if cc.mode == "mpc" else None
+        except SiteError as exc:
+            svc.log.error("cannot start: %s", exc)
+            raise SystemExit(2) from None
+        tracker = Tracker(cc, cfg.robot, site)
+        latest: dict[str, object] = {}
 
         def on_pose(msg: PoseEstimate) -> None:
             latest["pose"] = msg
 
+        def on_odom(msg: Odometry) -> None:
+            latest["odom"] = msg
+
+        def on_scan(msg: PointCloud) -> None:
+            latest["scan"] = msg
+
         def on_path(msg: Path) -> None:
-            follower.set_path(msg.path_id, msg.waypoints, msg.v_ref, msg.reverse)
-            svc.log.info("path %s: %d waypoints", msg.path_id or "(stop)", len(msg.waypoints))
+            tracker.set_path(msg.path_id, msg.waypoints, msg.v_ref, msg.reverse, msg.precise)
+            svc.log.info(
+                "path %s: %d waypoints%s",
+                msg.path_id or "(stop)",
+                len(msg.waypoints),
+                " (reverse)" if msg.reverse else "",
+            )
 
         def step(clock: Clock) -> None:
             pose = latest.get("pose")
             if pose is None:
-                cmd_v, cmd_w, state = 0.0, 0.0, "no_pose"
-                status = FollowStatus(clock.stamp, follower.path_id, state, 0.0, 0.0, 0.0)
+                cmd_v, cmd_w = 0.0, 0.0
+                status = FollowStatus(clock.stamp, tracker.path_id, "no_pose", 0.0, 0.0, 0.0)
             else:
-                fresh = clock.stamp - pose.stamp <= cfg.controller.pose_timeout_s and not pose.lost
+                fresh = clock.stamp - pose.stamp <= cc.pose_timeout_s and not pose.lost
+                odom = latest.get("odom")
+                scan = latest.get("scan")
+                obstacles = (
+                    scan_to_world(scan, pose, cfg.localisation.scan_band_m, cc.obstacle_range_m)
+                    if scan is not None
+                    else None
+                )
                 p = pose.pose
-                cmd = follower.step(p.x, p.y, p.theta, fresh)
+                cmd = tracker.step(
+                    p.x,
+                    p.y,
+                    p.theta,
+                    p.floor,
+                    odom.v if odom else 0.0,
+                    odom.w if odom else 0.0,
+                    obstacles,
+                    fresh,
+                    1.0 / cc.rate_hz,
+                )
                 cmd_v, cmd_w = cmd.v, cmd.w
                 status = FollowStatus(
                     clock.stamp,
-                    follower.path_id,
+                    tracker.path_id,
                     cmd.state,
                     cmd.progress,
                     cmd.distance_to_goal,
@@ -50,9 +106,12 @@ def main(argv: list[str] | None = None) -> None:
 
         bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, on_pose)
         bus.subscribe(svc.declare("subscribes", keys.path), Path, on_path)
+        bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, on_odom)
+        bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, on_scan)
         cmd_key = svc.declare("publishes", keys.cmd_vel)
         status_key = svc.declare("publishes", keys.follow_status)
-        svc.every(cfg.controller.rate_hz, step)
+        svc.log.info("tracking with %s", cc.mode)
+        svc.every(cc.rate_hz, step)
         svc.wait()
 
 

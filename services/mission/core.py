@@ -117,6 +117,7 @@ class Recorder:
     _last_xy: tuple[float, float] | None = None
     _truth: dict[float, tuple[float, float, float]] = field(default_factory=dict)
     _loc_sq: list[tuple[float, float]] = field(default_factory=list)
+    _track_sq: list[float] = field(default_factory=list)
 
     @property
     def finished(self) -> bool:
@@ -163,6 +164,11 @@ class Recorder:
         dth = math.atan2(math.sin(theta - truth[2]), math.cos(theta - truth[2]))
         self._loc_sq.append(((x - truth[0]) ** 2 + (y - truth[1]) ** 2, dth**2))
 
+    def on_follow(self, state: str, cross_track: float, precise: bool) -> None:
+        """The controller's cross-track error while following a leg (not door passes)."""
+        if state == "following" and not precise and not self.finished:
+            self._track_sq.append(cross_track**2)
+
     def localisation_error(self) -> dict[str, float | None]:
         """RMS and max position error (m) and RMS heading error (deg) of the pose estimates."""
         if not self._loc_sq:
@@ -203,6 +209,9 @@ class Recorder:
             "wall_time_s": round(wall_time_s, 3),
             "path_length_m": round(self.path_length_m, 3),
             "localisation_error": self.localisation_error(),
+            "cross_track_rms_m": round(float(np.sqrt(np.mean(self._track_sq))), 4)
+            if self._track_sq
+            else None,
             "phases": [
                 {
                     "name": p.name,

@@ -24,7 +24,16 @@ from services.launcher.node import Supervisor, open_router, wait_ready
 from services.mission.core import Recorder, Scenario
 from shared import config as config_mod
 from shared.lockstep import Participant
-from shared.messages import Clock, Event, NavGoal, NavStatus, Odometry, PoseEstimate, SimStatus
+from shared.messages import (
+    Clock,
+    Event,
+    FollowStatus,
+    NavGoal,
+    NavStatus,
+    Odometry,
+    PoseEstimate,
+    SimStatus,
+)
 from shared.topics import Keys
 from shared.transport import Bus
 
@@ -115,6 +124,13 @@ class MissionRun:
             lambda m: self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp),
         )
         bus.subscribe(
+            keys.follow_status,
+            FollowStatus,
+            lambda m: self.recorder.on_follow(
+                m.state, m.cross_track, ".door" in m.path_id or ".lift" in m.path_id
+            ),
+        )
+        bus.subscribe(
             keys.pose,
             PoseEstimate,
             lambda m: self.recorder.on_pose(m.stamp, m.pose.x, m.pose.y, m.pose.theta),
@@ -183,6 +199,8 @@ def format_report(report: dict[str, Any]) -> str:
         f"  collisions {report['collisions']}, min clearance "
         f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m",
     ]
+    if report.get("cross_track_rms_m") is not None:
+        lines.append(f"  cross-track error on legs: RMS {100 * report['cross_track_rms_m']:.1f} cm")
     loc = report["localisation_error"]
     if loc["samples"]:
         lines.append(

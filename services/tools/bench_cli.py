@@ -7,6 +7,7 @@ import importlib
 
 BENCHES = {
     "planner": ("services.planner.bench", "A* vs pyastar2d on 800 x 4000, inflation"),
+    "mpc": ("services.controller.mpc_bench", "MPC cycle time, 1000 x 21 and 2000 x 56"),
     "sim": ("services.sim.bench", "real-time factor with the 3D LiDAR, ray casting per scan"),
 }
 

@@ -1,0 +1,108 @@
+"""Which tracker drives the chair: the sampling MPC, or pure pursuit where the MPC does not go.
+
+``controller.mode: mpc`` uses :class:`~services.controller.mpc.SamplingMPC` for forward
+paths (walls from the floor map's distance field, obstacles from the live LiDAR). Pure
+pursuit takes reverse paths (backing out of a lift car), precise passes (through a
+door, into a car: the MPC's safety margins leave no room in a 1.0 m door) and the last
+``controller.final_approach_m`` of a path (the MPC's costs flatten out where v_ref
+falls to 0; pure pursuit docks on the approach pose). ``pursuit`` uses pure pursuit
+throughout. Pure: the node hands in poses, speeds and points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+from services.controller.core import Command, PathFollower
+from services.controller.mpc import MPCConfig, SamplingMPC
+from shared.config import ControllerConfig, RobotConfig
+from shared.site import Site
+
+
+class Tracker:
+    """Follows one path at a time with the configured tracker."""
+
+    def __init__(self, cfg: ControllerConfig, robot: RobotConfig, site: Site | None) -> None:
+        self.cfg = cfg
+        self.pursuit = PathFollower(cfg, robot)
+        self.mpc: SamplingMPC | None = None
+        self.fields: dict[str, tuple[np.ndarray, float, tuple[float, float]]] = {}
+        self.floor = ""
+        self.use_mpc = False
+        if cfg.mode == "mpc":
+            mpc_cfg = MPCConfig(
+                samples=cfg.mpc_samples,
+                steps=cfg.mpc_steps,
+                dt=cfg.mpc_dt,
+                threads=cfg.mpc_threads,
+                goal_tolerance_m=cfg.goal_tolerance_m,
+            )
+            self.mpc = SamplingMPC(mpc_cfg, robot)
+            for name, floor in site.floors.items() if site else []:
+                g = floor.map
+                dist = distance_transform_edt(~g.occupied(True), sampling=g.resolution)
+                self.fields[name] = (dist, g.resolution, (g.origin[0], g.origin[1]))
+            self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Compile the MPC kernel now, not in the first control cycle of a mission."""
+        if not self.fields:
+            return
+        name = next(iter(self.fields))
+        self._floor(name)
+        dist, res, origin = self.fields[name]
+        r, c = np.unravel_index(int(np.argmax(dist)), dist.shape)
+        x, y = origin[0] + (c + 0.5) * res, origin[1] + (r + 0.5) * res
+        self.mpc.set_path(np.array([[x, y], [x + 0.5, y]]), np.array([0.3, 0.0]))
+        self.mpc.step(x, y, 0.0, 0.0, 0.0, None, 0.04)
+        self.mpc.set_path(np.zeros((0, 2)), np.zeros(0))
+
+    def _floor(self, floor: str) -> None:
+        if self.mpc is not None and floor in self.fields and floor != self.floor:
+            self.floor = floor
+            self.mpc.set_distance_field(*self.fields[floor])
+
+    @property
+    def path_id(self) -> str:
+        return self.pursuit.path_id
+
+    def set_path(
+        self,
+        path_id: str,
+        waypoints: np.ndarray,
+        v_ref: np.ndarray,
+        reverse: bool = False,
+        precise: bool = False,
+    ) -> None:
+        """Follow a path; reverse and precise (door, lift car) passes use pure pursuit."""
+        self.pursuit.set_path(path_id, waypoints, v_ref, reverse)
+        self.use_mpc = self.mpc is not None and not reverse and not precise and len(waypoints) > 0
+        if self.mpc is not None:
+            self.mpc.set_path(
+                waypoints if self.use_mpc else np.zeros((0, 2)),
+                v_ref if self.use_mpc else np.zeros(0),
+            )
+
+    def step(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        floor: str,
+        v: float,
+        w: float,
+        obstacles: np.ndarray | None,
+        fresh: bool,
+        period_s: float,
+    ) -> Command:
+        """The command for this cycle (zero when the pose is stale or everything collides)."""
+        if not self.use_mpc:
+            return self.pursuit.step(x, y, theta, fresh)
+        if not fresh:
+            return Command(0.0, 0.0, "stale")
+        self._floor(floor)
+        pursuit = self.pursuit.step(x, y, theta, fresh)  # keeps its progress in step too
+        if pursuit.state == "arrived" or pursuit.distance_to_goal < self.cfg.final_approach_m:
+            return pursuit
+        return self.mpc.step(x, y, theta, v, w, obstacles, period_s)

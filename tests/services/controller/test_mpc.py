@@ -1,0 +1,324 @@
+"""Sampling MPC: cost terms one by one, blocked stop, limits, closed loops on an ideal unicycle."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.ndimage import distance_transform_edt
+
+from services.controller.mpc import MPCConfig, SamplingMPC, footprint_points
+from services.controller.mpc_bench import (
+    RES,
+    closed_loop,
+    door_scene,
+    l_corridor_scene,
+    lidar_scan,
+)
+from shared.config import RobotConfig
+
+WEIGHTS = (
+    "w_track",
+    "w_progress",
+    "w_heading",
+    "w_speed_ref",
+    "w_speed_window",
+    "w_turn",
+    "w_smooth",
+    "w_wall",
+    "w_obstacle",
+    "w_goal",
+)
+BACKENDS = ("numba", "numpy")
+ONE = {"threads": 1}  # one kernel thread: steady test times on a busy machine, same results
+
+
+def only(term: str, backend: str = "numba", **kw) -> MPCConfig:
+    """A config where every cost weight but ``term`` is zero."""
+    zero = {w: 0.0 for w in WEIGHTS if w != term}
+    return MPCConfig(backend=backend, **zero, **ONE, **kw)
+
+
+def corridor_field(half_width: float = 1.0) -> tuple[np.ndarray, float, tuple[float, float]]:
+    """Distance field of a straight corridor along x, |y| < half_width, x in [-2, 10]."""
+    ox, oy = -3.0, -half_width - 1.0
+    w, h = round(14.0 / RES), round((2 * half_width + 2.0) / RES)
+    cx = ox + (np.arange(w) + 0.5) * RES
+    cy = oy + (np.arange(h) + 0.5) * RES
+    free = (np.abs(cy)[:, None] < half_width) & (cx[None, :] > -2.0) & (cx[None, :] < 10.0)
+    return distance_transform_edt(free) * RES, RES, (ox, oy)
+
+
+def straight_mpc(cfg: MPCConfig, half_width: float | None = 1.0) -> SamplingMPC:
+    mpc = SamplingMPC(cfg, RobotConfig())
+    mpc.set_path(np.array([[0.0, 0.0], [8.0, 0.0]]), np.array([0.4, 0.4]))
+    if half_width is not None:
+        mpc.set_distance_field(*corridor_field(half_width))
+    return mpc
+
+
+def constant(cfg: MPCConfig, *pairs: tuple[float, float]) -> np.ndarray:
+    """Input sequences (K, T, 2) holding each (v, w) pair over the whole horizon."""
+    return np.array([[pair] * cfg.steps for pair in pairs], dtype=np.float32)
+
+
+# -- geometry --------------------------------------------------------------------------
+
+
+def test_footprint_check_points_cover_the_outline() -> None:
+    fp = RobotConfig().footprint
+    pts, half_gap = footprint_points(fp, 0.1)
+    for corner in [(-fp.rear, -fp.width / 2), (fp.front, fp.width / 2)]:
+        assert np.min(np.hypot(*(pts - corner).T)) < 1e-6
+    on_x = np.isclose(np.abs(pts[:, 0] - (fp.front - fp.rear) / 2), (fp.front + fp.rear) / 2)
+    on_y = np.isclose(np.abs(pts[:, 1]), fp.width / 2)
+    assert np.all(on_x | on_y)
+    assert half_gap <= 0.05 + 1e-9
+
+
+# -- cost terms one by one ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_rollout_through_a_wall_costs_more_than_one_beside_it(backend: str) -> None:
+    cfg = only("w_wall", backend)
+    mpc = straight_mpc(cfg, half_width=1.0)
+    ev = mpc.evaluate(0.0, 0.45, 0.0, 0.4, 0.0, constant(cfg, (0.4, 0.0), (0.4, 0.6)))
+    assert ev.cost[1] > ev.cost[0] > 0.0  # beside the wall costs a little, through it more
+    assert not ev.colliding[0] and ev.colliding[1]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_nearer_an_obstacle_costs_more(backend: str) -> None:
+    cfg = only("w_obstacle", backend)
+    mpc = straight_mpc(cfg, half_width=None)
+    seq = constant(cfg, (0.4, 0.0))
+    xs = np.arange(0.0, 4.0, 0.05)
+    costs = []
+    for y in (0.9, 0.7, 0.5):
+        ev = mpc.evaluate(0.0, 0.0, 0.0, 0.4, 0.0, seq, np.c_[xs, np.full_like(xs, y)])
+        costs.append(ev.cost[0])
+        assert not ev.colliding[0]
+    assert costs[2] > costs[1] > costs[0] >= 0.0
+    ev = mpc.evaluate(0.0, 0.0, 0.0, 0.4, 0.0, seq, np.c_[xs, np.full_like(xs, 0.3)])
+    assert ev.colliding[0]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_off_path_costs_more(backend: str) -> None:
+    cfg = only("w_track", backend)
+    mpc = straight_mpc(cfg, half_width=None)
+    seq = constant(cfg, (0.4, 0.0))
+    on = mpc.evaluate(0.0, 0.0, 0.0, 0.4, 0.0, seq).cost[0]
+    off = mpc.evaluate(0.0, 0.3, 0.0, 0.4, 0.0, seq).cost[0]
+    further = mpc.evaluate(0.0, 0.6, 0.0, 0.4, 0.0, seq).cost[0]
+    assert on < 1e-6 < off < further
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_outside_the_speed_window_costs_more(backend: str) -> None:
+    cfg = only("w_speed_window", backend)
+    robot = RobotConfig(max_reverse_speed=0.5)  # lets a rollout go below the window too
+    mpc = SamplingMPC(cfg, robot)
+    mpc.set_path(np.array([[0.0, 0.0], [8.0, 0.0]]), np.array([0.4, 0.4]))
+    costs = [
+        mpc.evaluate(0.0, 0.0, 0.0, v, 0.0, constant(cfg, (v, 0.0))).cost[0]
+        for v in (0.45, 0.6, -0.2, -0.45)
+    ]
+    assert costs[0] == pytest.approx(0.0, abs=1e-9) and costs[2] == pytest.approx(0.0, abs=1e-9)
+    assert costs[1] > 0.0 and costs[3] > 0.0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_jerky_inputs_cost_more(backend: str) -> None:
+    cfg = only("w_smooth", backend)
+    mpc = straight_mpc(cfg, half_width=None)
+    steady = constant(cfg, (0.3, 0.0))
+    jerky = steady.copy()
+    jerky[0, ::2, 1] = 0.3
+    jerky[0, 1::2, 1] = -0.3
+    c = mpc.evaluate(0.0, 0.0, 0.0, 0.3, 0.0, np.concatenate([steady, jerky])).cost
+    assert c[0] == pytest.approx(0.0, abs=1e-9) and c[1] > 0.01
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_heading_effort_progress_and_goal_terms(backend: str) -> None:
+    seq_pairs = ((0.4, 0.0), (0.4, 0.3))
+    heading = straight_mpc(only("w_heading", backend), None)
+    c = heading.evaluate(0, 0, 0, 0.4, 0, constant(heading.cfg, *seq_pairs)).cost
+    assert c[1] > c[0]
+    effort = straight_mpc(only("w_turn", backend), None)
+    c = effort.evaluate(0, 0, 0, 0.4, 0, constant(effort.cfg, *seq_pairs)).cost
+    assert c[1] > c[0] == pytest.approx(0.0, abs=1e-9)
+    progress = straight_mpc(only("w_progress", backend), None)
+    moving = progress.evaluate(0, 0, 0, 0.4, 0, constant(progress.cfg, (0.4, 0.0))).cost[0]
+    standing = progress.evaluate(0, 0, 0, 0.0, 0, constant(progress.cfg, (0.0, 0.0))).cost[0]
+    assert moving == pytest.approx(0.0, abs=1e-5) and standing == pytest.approx(1.0)
+    goal = straight_mpc(only("w_goal", backend), None)  # 1 m before the goal at (8, 0)
+    arrive, stay, overshoot = constant(goal.cfg, (0.3, 0.0), (0.0, 0.0), (0.6, 0.0))
+    arrive[15:, 0] = 0.0  # about 1 m, then stop
+    c = goal.evaluate(7.0, 0, 0, 0.3, 0, np.stack([arrive, stay, overshoot])).cost
+    assert c[0] < c[1] and c[0] < c[2]
+
+
+def test_numba_and_numpy_evaluators_agree() -> None:
+    scene = l_corridor_scene()
+    scan = lidar_scan(scene, 1.0, 0.1)
+    rng = np.random.default_rng(3)
+    seqs = np.zeros((300, 21, 2), dtype=np.float32)
+    seqs[..., 0] = 0.4 + rng.normal(0, 0.15, (300, 21))
+    seqs[..., 1] = np.cumsum(rng.normal(0, 0.15, (300, 21)), axis=1)
+    out = {}
+    for backend in BACKENDS:
+        mpc = SamplingMPC(MPCConfig(backend=backend, **ONE), RobotConfig())
+        mpc.set_path(scene.path, scene.v_ref)
+        mpc.set_distance_field(scene.dist, RES, scene.origin)
+        out[backend] = mpc.evaluate(1.0, 0.1, 0.05, 0.4, 0.0, seqs, scan)
+    a, b = out["numba"], out["numpy"]
+    np.testing.assert_allclose(a.inputs, b.inputs, atol=1e-5)
+    np.testing.assert_allclose(a.cost, b.cost, rtol=1e-3, atol=1e-4)
+    assert 0 < a.colliding.sum() < len(seqs)
+    assert (a.colliding == b.colliding).mean() >= 0.99
+
+
+# -- safety and limits --------------------------------------------------------------------
+
+
+def boxed_in_field(gap: float) -> tuple[np.ndarray, float, tuple[float, float]]:
+    """Walls ``gap`` metres around the footprint of a chair at the origin facing +x."""
+    fp = RobotConfig().footprint
+    ox = oy = -2.0
+    c = ox + (np.arange(80) + 0.5) * RES
+    free = (
+        (c[None, :] >= -fp.rear - gap)
+        & (c[None, :] <= fp.front + gap)
+        & (np.abs(c)[:, None] <= fp.width / 2 + gap)
+    )
+    return distance_transform_edt(free) * RES, RES, (ox, oy)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_boxed_in_chair_stops_and_reports_blocked(backend: str) -> None:
+    mpc = SamplingMPC(MPCConfig(backend=backend, samples=300, **ONE), RobotConfig())
+    mpc.set_path(np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([0.5, 0.0]))
+    mpc.set_distance_field(*boxed_in_field(0.15))
+    for v in (0.3, 0.0):
+        cmd = mpc.step(0.0, 0.0, 0.0, v, 0.0, period_s=0.1)
+        assert (cmd.state, cmd.v, cmd.w) == ("blocked", 0.0, 0.0)
+        assert mpc.last_colliding == 1.0
+        assert mpc._nominal is None  # warm start reset: the next cycle starts cold
+
+
+def test_points_all_round_also_block() -> None:
+    mpc = SamplingMPC(MPCConfig(samples=300, **ONE), RobotConfig())
+    mpc.set_path(np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([0.5, 0.0]))
+    ang = np.linspace(0, 2 * np.pi, 120, endpoint=False)
+    ring = np.c_[0.2 + 0.9 * np.cos(ang), 0.6 * np.sin(ang)]
+    cmd = mpc.step(0.0, 0.0, 0.0, 0.0, 0.0, ring, 0.1)
+    assert (cmd.state, cmd.v, cmd.w) == ("blocked", 0.0, 0.0)
+    cmd = mpc.step(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.1)  # the ring is gone: free to go
+    assert cmd.state == "following" and cmd.v > 0.0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_rollouts_respect_speed_and_acceleration_limits(backend: str) -> None:
+    robot = RobotConfig()
+    cfg = MPCConfig(backend=backend, **ONE)
+    mpc = straight_mpc(cfg, None)
+    rng = np.random.default_rng(1)
+    wild = rng.uniform(-5, 5, (50, cfg.steps, 2)).astype(np.float32)
+    ev = mpc.evaluate(0.0, 0.0, 0.0, 0.2, -0.3, wild)
+    v, w = ev.inputs[..., 0], ev.inputs[..., 1]
+    eps = 1e-5
+    assert v.max() <= robot.max_speed + eps and v.min() >= -robot.max_reverse_speed - eps
+    assert np.abs(w).max() <= robot.max_turn_rate + eps
+    dv = np.diff(np.concatenate([np.full((50, 1), 0.2), v], axis=1), axis=1)
+    dw = np.diff(np.concatenate([np.full((50, 1), -0.3), w], axis=1), axis=1)
+    assert np.abs(dv).max() <= robot.max_accel * cfg.dt + eps
+    assert np.abs(dw).max() <= robot.max_turn_accel * cfg.dt + eps
+    poses = ev.poses
+    step = np.hypot(*np.diff(poses[..., :2], axis=1).transpose(2, 0, 1))
+    assert step.max() <= robot.max_speed * cfg.dt + eps
+
+
+def test_warm_start_is_shifted_by_the_real_period() -> None:
+    cfg = MPCConfig(steps=5, dt=0.2, **ONE)
+    mpc = straight_mpc(cfg, None)
+    mpc._nominal = np.array([[0.0, 0.0], [0.1, 1.0], [0.2, 2.0], [0.3, 3.0], [0.4, 4.0]])
+    np.testing.assert_allclose(mpc._shifted(0.2)[:, 0], [0.1, 0.2, 0.3, 0.4, 0.4], atol=1e-6)
+    np.testing.assert_allclose(mpc._shifted(0.1)[:, 1], [0.5, 1.5, 2.5, 3.5, 4.0], atol=1e-6)
+
+
+# -- closed loops on an ideal unicycle ----------------------------------------------------
+
+
+def test_l_shaped_corridor_reaches_the_goal_on_the_path_within_the_limits() -> None:
+    robot = RobotConfig()
+    trace: list = []
+    result = closed_loop(MPCConfig(**ONE), l_corridor_scene(), robot, period_s=0.1, trace=trace)
+    assert result["state"] == "arrived"
+    assert result["goal_error_m"] <= MPCConfig(**ONE).goal_tolerance_m
+    assert result["rms_cross_track_m"] < 0.10
+    assert result["min_clearance_m"] > 0.0
+    cmd = np.array(trace)[:, 3:]
+    v, w = cmd[:, 0], cmd[:, 1]
+    assert v.max() <= robot.max_speed + 1e-9 and v.min() >= -robot.max_reverse_speed - 1e-9
+    assert np.abs(w).max() <= robot.max_turn_rate + 1e-9
+    assert np.abs(np.diff(v)).max() <= robot.max_accel * 0.1 + 1e-9
+    assert np.abs(np.diff(w)).max() <= robot.max_turn_accel * 0.1 + 1e-9
+
+
+def test_passes_a_one_metre_door_without_touching() -> None:
+    result = closed_loop(MPCConfig(**ONE), door_scene(), period_s=0.1)
+    assert result["state"] == "arrived"
+    assert result["min_clearance_m"] > 0.0
+
+
+def test_cluster_selection_also_follows_the_l() -> None:
+    result = closed_loop(MPCConfig(selection="cluster", **ONE), l_corridor_scene(), period_s=0.1)
+    assert result["state"] == "arrived" and result["rms_cross_track_m"] < 0.10
+
+
+def test_same_seed_gives_the_same_commands() -> None:
+    scene = l_corridor_scene()
+
+    def run(seed: int, threads: int = 1) -> list:
+        trace: list = []
+        cfg = MPCConfig(seed=seed, threads=threads)
+        closed_loop(cfg, scene, period_s=0.1, max_time_s=2.0, trace=trace)
+        return trace
+
+    assert run(7) == run(7) == run(7, threads=2)  # the kernel's threads change nothing
+    assert run(7) != run(8)
+
+
+# -- reporting ----------------------------------------------------------------------------
+
+
+def test_idle_progress_cross_track_and_arrival() -> None:
+    mpc = SamplingMPC(MPCConfig(samples=200, **ONE), RobotConfig())
+    assert mpc.step(0.0, 0.0, 0.0, 0.0, 0.0).state == "idle"
+    mpc.set_path(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]]), np.array([0.5, 0.5, 0.0]))
+    cmd = mpc.step(2.0, 0.3, 0.0, 0.0, 0.0, period_s=0.1)
+    assert cmd.state == "following"
+    assert cmd.cross_track == pytest.approx(0.3)
+    assert cmd.progress == pytest.approx(2.0 / 8.0)
+    assert cmd.distance_to_goal == pytest.approx(math.hypot(2.0, 3.7))
+    cmd = mpc.step(4.05, 3.9, math.pi / 2, 0.1, 0.0, period_s=0.1)
+    assert (cmd.state, cmd.v, cmd.w) == ("arrived", 0.0, 0.0)
+    assert mpc.step(4.05, 3.9, math.pi / 2, 0.0, 0.0).state == "arrived"  # latched
+
+
+def test_a_non_finite_state_stops_the_chair() -> None:
+    mpc = straight_mpc(MPCConfig(samples=100, **ONE), None)
+    cmd = mpc.step(math.nan, 0.0, 0.0, 0.0, 0.0)
+    assert (cmd.state, cmd.v, cmd.w) == ("stale", 0.0, 0.0)
+
+
+def test_bad_settings_are_refused() -> None:
+    with pytest.raises(ValueError, match="selection"):
+        SamplingMPC(MPCConfig(selection="best"), RobotConfig())
+    with pytest.raises(ValueError, match="samples"):
+        SamplingMPC(replace(MPCConfig(**ONE), samples=1), RobotConfig())
