@@ -318,6 +318,37 @@ def run_mpc_bench(
     return {"mpc": rows}
 
 
+def localisation_bench(repeats: int = 50, progress: Callable[[str], None] = print) -> float:
+    """Median time (ms) of one map-mode localisation update (scan match) on two_floors."""
+    from pathlib import Path
+
+    from services.localisation.core import MapLocaliser, MapModeSettings
+    from services.localisation.matcher import DistanceField
+    from shared.config import load
+    from shared.site import load_site
+    from sim.simulation import Simulation
+
+    site = load_site(Path(__file__).resolve().parents[2] / "sites" / "two_floors")
+    cfg = load(None, ["sim.start.place=corridor_1_west", "sim.lidar=vlp16"])
+    sim = Simulation(cfg, site)
+    scan = None
+    while scan is None:
+        scan = sim.step().scan
+    pts = scan[np.abs(scan[:, 2]) < cfg.localisation.scan_band_m]
+    s = sim.state
+    loc = MapLocaliser(
+        DistanceField(site.floor("1").map), s.x, s.y, s.theta, "1", MapModeSettings()
+    )
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        loc.update_scan(pts)
+        times.append((time.perf_counter() - t0) * 1e3)
+    median = round(float(np.median(times)), 3)
+    progress(f"localisation update (VLP-16 band, {len(pts)} points): median {median:.2f} ms")
+    return median
+
+
 def main(argv: list[str] | None = None) -> int:
     """Command line: print the timings (and the selection comparison with --compare)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -334,6 +365,7 @@ def main(argv: list[str] | None = None) -> int:
             print(text)
 
     result = run_mpc_bench(args.repeats, say, args.backend, threads=args.threads)
+    result["localisation_ms"] = localisation_bench(args.repeats, say)
     if args.compare:
         result["selection"] = compare_selections(progress=say)
     if args.json:

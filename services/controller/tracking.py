@@ -36,6 +36,7 @@ class Tracker:
                 steps=cfg.mpc_steps,
                 dt=cfg.mpc_dt,
                 threads=cfg.mpc_threads,
+                w_track=cfg.mpc_track_weight,
                 goal_tolerance_m=cfg.goal_tolerance_m,
             )
             self.mpc = SamplingMPC(mpc_cfg, robot)

@@ -60,6 +60,7 @@ class MapModeSettings:
     lost_after_scans: int = 5
     cutoff_m: float = 0.4
     prior_weight: float = 20.0
+    max_points: int = 1000  # a 3-D cloud is thinned to this many points (evenly) to match
 
 
 class MapLocaliser:
@@ -111,6 +112,8 @@ class MapLocaliser:
     def update_scan(self, points: np.ndarray) -> bool:
         """Match a scan (N, 2+) in the sensor frame; True if the pose was corrected."""
         s = self.settings
+        if len(points) > s.max_points:
+            points = points[np.linspace(0, len(points) - 1, s.max_points).astype(int)]
         m = match_scan(
             self.field, points, self.pose, cutoff_m=s.cutoff_m, prior_weight=s.prior_weight
         )

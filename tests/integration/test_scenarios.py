@@ -48,3 +48,12 @@ def test_lift_out_of_service_uses_the_other_lift() -> None:
     fallbacks = [e for e in report["events"] if e["kind"] == "fallback"]
     assert len(fallbacks) == 1 and "lift_b" in fallbacks[0]["detail"]
     assert "out of service" in fallbacks[0]["detail"]
+
+
+def test_pedestrian_stepping_into_the_path_is_waited_for() -> None:
+    report, out = run("pedestrian")
+    assert report["success"], (report["reason"], out[-2000:])
+    assert report["collisions"] == 0 and report["min_clearance_m"] > 0.1
+    assert report["cross_track_rms_m"] < 0.10  # it waited rather than swerving round
+    demo, _ = run("demo")
+    assert report["sim_time_s"] > demo["sim_time_s"] + 1.0  # and lost time doing so

@@ -55,3 +55,13 @@ def test_zenoh_only_in_nodes_and_transport() -> None:
             if "import zenoh" in path.read_text():
                 offenders.append(rel)
     assert offenders == []
+
+
+def test_no_navigation_service_listens_to_ground_truth() -> None:
+    """Ground truth is for evaluation (sim, building emulator, mission report, viz) only."""
+    navigation = ("localisation", "planner", "controller", "navigator")
+    for name in navigation:
+        source = (ROOT / "services" / name / "node.py").read_text()
+        assert "ground_truth" not in source and "sim_status" not in source, name
+    for path in (ROOT / "behaviours").rglob("*.py"):
+        assert "ground_truth" not in path.read_text(), path.name
