@@ -124,10 +124,10 @@ class SimConfig:
     realtime_factor: float = field(default=1.0, metadata=check(_non_negative))
     watchdog_s: float = field(default=0.3, metadata=check(_positive))
     motor_lag_s: float = field(default=0.1, metadata=check(_non_negative))
-    lidar: str = field(default="planar", metadata=_one_of("planar", "vlp16"))
+    lidar: str = field(default="vlp16", metadata=_one_of("planar", "vlp16"))
     lidar_rate_hz: float = field(default=10.0, metadata=check(_positive))
     lidar_beams: int = field(default=360, metadata=check(_positive))
-    lidar_fov_deg: float = field(default=360.0, metadata=check(_positive))
+    lidar_fov_deg: float = field(default=270.0, metadata=check(_positive))
     lidar_range_m: float = field(default=12.0, metadata=check(_positive))
     lidar_noise_m: float = field(default=0.01, metadata=check(_non_negative))
     odom_scale_error: float = 0.01

@@ -31,7 +31,8 @@ def sim_at(x: float, y: float, motion: str = "hinged") -> Simulation:
 def range_ahead(sim: Simulation) -> float:
     for _ in range(sim.scan_every):
         r = sim.step()
-    ahead = r.scan[np.abs(np.arctan2(r.scan[:, 1], r.scan[:, 0])) < 0.01]
+    level = r.scan[np.abs(r.scan[:, 2]) < 0.3]  # the rings near the horizontal
+    ahead = level[np.abs(np.arctan2(level[:, 1], level[:, 0])) < 0.01]
     return float(ahead[:, 0].mean())
 
 

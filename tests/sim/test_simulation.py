@@ -51,7 +51,8 @@ def range_ahead(sim: Simulation) -> float:
         r = sim.step()
     pts = r.scan
     assert pts.dtype == np.float32 and pts.shape[1] == 3
-    ahead = pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.01]
+    level = pts[np.abs(pts[:, 2]) < 0.3]  # the rings near the horizontal
+    ahead = level[np.abs(np.arctan2(level[:, 1], level[:, 0])) < 0.01]
     return float(ahead[:, 0].mean())
 
 
