@@ -22,6 +22,7 @@ import numpy as np
 
 from services.planner import errors
 from services.planner.core import Plan, Planner
+from services.planner.rooms import detect_doors_along_path
 from shared.config import PlannerConfig
 from shared.site import Door, Site
 
@@ -191,8 +192,15 @@ class RoutePlanner:
     def floor_route(
         self, start: tuple[float, float], goal: tuple[float, float], floor: str
     ) -> Route:
-        """A route on one floor: legs joined by checkpoints for each declared door crossed."""
+        """A route on one floor: legs joined by checkpoints for each door crossed.
+
+        The site's declared doors are used where it has any on this floor; on a map without
+        annotations the doorways the route passes (narrow passages with walls on both
+        sides) are found along the path and become checkpoints the same way.
+        """
         doors = [d for d in self.site.doors if d.floor == floor]
+        if not doors:
+            doors = self.detected_doors(start, goal, floor)
         blocked = [(d.p1, d.p2) for d in doors if d.id in self.blocked_doors]
         try:
             whole = self.planner.plan(start, goal, floor, blocked)
@@ -214,6 +222,32 @@ class RoutePlanner:
             here = cp.exit[:2]
         legs.append(self._leg(here, goal, floor, closed))
         return Route(legs, checkpoints)
+
+    def detected_doors(
+        self, start: tuple[float, float], goal: tuple[float, float], floor: str
+    ) -> list[Door]:
+        """Doorways along the plain A* path on an unannotated floor, as manual doors."""
+        try:
+            raw = self.planner.plan(start, goal, floor)
+        except errors.PlanError:
+            return []
+        grid = self.site.floor(floor).map
+        found = detect_doors_along_path(
+            grid.occupied(self.planner.cfg.unknown_is_occupied),
+            grid.resolution,
+            (grid.origin[0], grid.origin[1]),
+            raw.waypoints,
+        )
+        return [
+            Door(
+                f"doorway_{floor}_{d.centre[0]:.1f}_{d.centre[1]:.1f}",
+                floor,
+                tuple(d.p1),
+                tuple(d.p2),
+                "manual",
+            )
+            for d in found
+        ]
 
     def _leg(self, a, b, floor: str, closed: list[Segment]) -> Plan:
         """A leg that ends standing still at ``b`` (a door's approach pose or the goal)."""

@@ -82,3 +82,33 @@ def test_crossings_finds_order_and_side() -> None:
     assert [(d.id, side) for _s, d, side in found] == [("a", -1), ("b", -1)]
     assert [round(s, 6) for s, _d, _side in found] == [1.0, 3.0]
     assert crossings(path[::-1].copy(), doors)[0][1].id == "b"
+
+
+def test_unannotated_map_gets_the_same_door_checkpoint() -> None:
+    """detectDoorsAlongPath: a plain ROS map (no site.yaml) gives the declared checkpoint."""
+    plain = load_site(ROOT / "sites" / "two_rooms" / "floor1.yaml")
+    assert plain.doors == []
+    routes = RoutePlanner(Planner(plain, RobotConfig(), PlannerConfig()), plain, PlannerConfig())
+    route = routes.request((2.0, 2.7), "", (10.5, 2.7), "")
+    declared = RoutePlanner(
+        Planner(SITE, RobotConfig(), PlannerConfig()), SITE, PlannerConfig()
+    ).request((2.0, 2.7), "1", (10.5, 2.7), "1")
+    assert len(route.checkpoints) == 1
+    found, want = route.checkpoints[0], declared.checkpoints[0]
+    assert found.width_m == pytest.approx(want.width_m, abs=0.1)
+    assert found.approach == pytest.approx(want.approach, abs=0.1)
+    assert found.exit == pytest.approx(want.exit, abs=0.1)
+
+
+def test_multi_floor_route_goes_door_corridor_lift_corridor_door() -> None:
+    site = load_site(ROOT / "sites" / "two_floors")
+    routes = RoutePlanner(Planner(site, RobotConfig(), PlannerConfig()), site, PlannerConfig())
+    route = routes.request((5.0, 4.0), "1", None, "", "room_2b")
+    kinds = [(c.kind, c.floor) for c in route.checkpoints]
+    assert kinds == [("door", "1"), ("elevator", "1"), ("door", "2")]
+    lift = route.checkpoints[1]
+    assert lift.to_floor == "2" and lift.id in ("lift_a", "lift_b")
+    assert [leg.floor for leg in route.legs] == ["1", "1", "2", "2"]
+    routes.set_door_blocked(lift.id, True)  # that lift unavailable: the other one
+    other = routes.request((5.0, 4.0), "1", None, "", "room_2b").checkpoints[1]
+    assert other.kind == "elevator" and other.id != lift.id
