@@ -107,13 +107,14 @@ class PointCloud(Msg):
     points: np.ndarray = array("float32", (None, 3))
 
 
-@message("path", version=3)
+@message("path", version=4)
 @dataclass
 class Path(Msg):
     """Waypoints (x, y) on one floor and the reference speed at each (m/s, 0 at the goal).
 
     ``reverse``: drive it backwards (out of a lift car, where the chair cannot turn).
     ``precise``: a short, straight pass through a door or into a car: track it exactly.
+    ``zones``: a tag per waypoint (room, corridor, door, goal), empty if unknown.
     """
 
     stamp: float
@@ -123,6 +124,7 @@ class Path(Msg):
     v_ref: np.ndarray = array("float64", (None,))
     reverse: bool = False
     precise: bool = False
+    zones: list[str] = field(default_factory=list)
 
 
 # --------------------------------------------------------------------------------------

@@ -10,7 +10,7 @@ No I/O and no clock: the node turns requests into calls and errors into codes.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,7 @@ class Plan:
     waypoints: np.ndarray
     v_ref: np.ndarray
     length_m: float
+    zones: list[str] = field(default_factory=list)  # per waypoint: room/corridor/door/goal
 
 
 @dataclass

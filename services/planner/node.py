@@ -29,7 +29,7 @@ def _pose(p: tuple[float, float, float], floor: str) -> m.Pose2D:
 def to_reply(route: Route, route_id: str) -> m.RouteReply:
     """The wire form of a route: legs, checkpoints, and the start floor's legs as one path."""
     legs = [
-        m.Path(0.0, f"{route_id}.{i}", leg.floor, leg.waypoints, leg.v_ref)
+        m.Path(0.0, f"{route_id}.{i}", leg.floor, leg.waypoints, leg.v_ref, zones=leg.zones)
         for i, leg in enumerate(route.legs)
     ]
     checkpoints = [_checkpoint(c) for c in route.checkpoints]

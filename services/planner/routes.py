@@ -22,9 +22,24 @@ import numpy as np
 
 from services.planner import errors
 from services.planner.core import Plan, Planner
-from services.planner.rooms import detect_doors_along_path
+from services.planner.rooms import RoomMap, detect_doors_along_path, segment_rooms
 from shared.config import PlannerConfig
 from shared.site import Door, Site
+
+
+def corridor_rooms(rooms: RoomMap, elongation: float = 3.0) -> set[int]:
+    """Corridors: rooms whose bounding box is ``elongation`` times longer than wide."""
+    out = set()
+    for room in rooms.graph.nodes:
+        cells = np.argwhere(rooms.labels == room)
+        if len(cells) == 0:
+            continue
+        extent = (cells.max(axis=0) - cells.min(axis=0) + 1) * rooms.resolution
+        long, short = max(extent), max(min(extent), 1e-6)
+        if long / short >= elongation:
+            out.add(room)
+    return out
+
 
 Pose = tuple[float, float, float]
 Segment = tuple[tuple[float, float], tuple[float, float]]
@@ -99,6 +114,13 @@ class RoutePlanner:
         self.cfg = cfg
         self.blocked_doors: set[str] = set()
         self.unavailable_lifts: set[str] = set()
+        self.rooms = {
+            name: segment_rooms(
+                f.map.occupied(True), f.map.resolution, (f.map.origin[0], f.map.origin[1])
+            )
+            for name, f in site.floors.items()
+        }
+        self.corridors = {name: corridor_rooms(rm) for name, rm in self.rooms.items()}
 
     def set_door_blocked(self, door_id: str, blocked: bool) -> None:
         if door_id not in {d.id for d in self.site.doors} | {e.id for e in self._elevators()}:
@@ -212,15 +234,16 @@ class RoutePlanner:
         open_doors = [d for d in doors if d.id not in self.blocked_doors]
         crossed = crossings(whole.waypoints, open_doors)
         if not crossed:
+            self.tag(whole, "goal")
             return Route([whole])
         closed = [(d.p1, d.p2) for d in doors]
         checkpoints = [self._door_checkpoint(door, side, floor) for _s, door, side in crossed]
         legs = []
         here = start
         for cp in checkpoints:
-            legs.append(self._leg(here, cp.approach[:2], floor, closed))
+            legs.append(self._leg(here, cp.approach[:2], floor, closed, "door"))
             here = cp.exit[:2]
-        legs.append(self._leg(here, goal, floor, closed))
+        legs.append(self._leg(here, goal, floor, closed, "goal"))
         return Route(legs, checkpoints)
 
     def detected_doors(
@@ -249,9 +272,23 @@ class RoutePlanner:
             for d in found
         ]
 
-    def _leg(self, a, b, floor: str, closed: list[Segment]) -> Plan:
-        """A leg that ends standing still at ``b`` (a door's approach pose or the goal)."""
-        return self.planner.plan(a, b, floor, closed)
+    def _leg(self, a, b, floor: str, closed: list[Segment], end: str = "goal") -> Plan:
+        """A leg that ends standing still at ``b`` (a door's approach pose or the goal),
+        with a zone tag per waypoint (``end`` near its end, else room or corridor)."""
+        plan = self.planner.plan(a, b, floor, closed)
+        self.tag(plan, end)
+        return plan
+
+    def tag(self, plan: Plan, end: str) -> None:
+        """Zone tags: ``end`` within the slow-down radius of the leg's end, else the kind of
+        room the waypoint is in (corridor or room)."""
+        rooms, corridors = self.rooms[plan.floor], self.corridors[plan.floor]
+        radius = self.cfg.door_slow_radius_m if end == "door" else self.cfg.goal_speed_radius_m
+        to_end = np.linalg.norm(plan.waypoints - plan.waypoints[-1], axis=1)
+        plan.zones = [
+            end if d <= radius else ("corridor" if rooms.room_at(x, y) in corridors else "room")
+            for (x, y), d in zip(plan.waypoints, to_end, strict=True)
+        ]
 
     def _door_checkpoint(self, door: Door, side: int, floor: str) -> Checkpoint:
         centre, normal, width = door_geometry(door)

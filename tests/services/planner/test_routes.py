@@ -112,3 +112,14 @@ def test_multi_floor_route_goes_door_corridor_lift_corridor_door() -> None:
     routes.set_door_blocked(lift.id, True)  # that lift unavailable: the other one
     other = routes.request((5.0, 4.0), "1", None, "", "room_2b").checkpoints[1]
     assert other.kind == "elevator" and other.id != lift.id
+
+
+def test_zone_tags_per_waypoint() -> None:
+    site = load_site(ROOT / "sites" / "two_floors")
+    routes = RoutePlanner(Planner(site, RobotConfig(), PlannerConfig()), site, PlannerConfig())
+    route = routes.request((5.0, 4.0), "1", None, "", "room_2b")
+    first, corridor = route.legs[0], route.legs[1]
+    assert len(first.zones) == len(first.waypoints)
+    assert first.zones[0] == "room" and first.zones[-1] == "door"
+    assert "corridor" in corridor.zones
+    assert route.legs[-1].zones[-1] == "goal"
