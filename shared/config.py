@@ -187,6 +187,7 @@ class ControllerConfig:
     mpc_dt: float = field(default=0.2, metadata=check(_positive))
     mpc_threads: int = field(default=1, metadata=check(_non_negative))
     mpc_track_weight: float = field(default=10.0, metadata=check(_non_negative))
+    mpc_safety_margin_m: float = field(default=0.05, metadata=check(_non_negative))
     obstacle_range_m: float = field(default=4.0, metadata=check(_positive))
     final_approach_m: float = field(default=0.5, metadata=check(_non_negative))
     lookahead_m: float = field(default=0.6, metadata=check(_positive))

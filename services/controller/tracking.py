@@ -37,6 +37,7 @@ class Tracker:
                 dt=cfg.mpc_dt,
                 threads=cfg.mpc_threads,
                 w_track=cfg.mpc_track_weight,
+                safety_margin_m=cfg.mpc_safety_margin_m,
                 goal_tolerance_m=cfg.goal_tolerance_m,
             )
             self.mpc = SamplingMPC(mpc_cfg, robot)
