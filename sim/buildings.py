@@ -16,6 +16,7 @@ from pathlib import Path
 import yaml
 
 from sim.sitegen import Rect, draw, write_map
+from sim.sitegen import two_rooms as sitegen_two_rooms
 
 RES = 0.05
 WALL = 0.2
@@ -236,7 +237,7 @@ def two_floors(folder: Path) -> None:
     write_site(folder, "two_floors", plans, shafts, (-1.0, -1.0, 41.0, 21.0))
 
 
-SITES = {"seed_floor": seed_floor, "two_floors": two_floors}
+SITES = {"two_rooms": sitegen_two_rooms, "seed_floor": seed_floor, "two_floors": two_floors}
 
 
 def main() -> None:

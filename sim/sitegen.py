@@ -1,12 +1,11 @@
 """Draw simple buildings into map_server maps: walls as rectangles, doorways as gaps.
 
 Used to (re)generate the bundled sites and the maps of tests, so every bundled map can
-be rebuilt from its description: ``python -m sim.sitegen two_rooms sites/two_rooms``.
+be rebuilt from its description: ``python -m sim.buildings two_rooms sites/two_rooms``.
 """
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -87,16 +86,3 @@ def two_rooms(folder: Path) -> None:
 
 
 SITES = {"two_rooms": two_rooms}
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("site", choices=sorted(SITES))
-    parser.add_argument("folder", type=Path)
-    args = parser.parse_args()
-    SITES[args.site](args.folder)
-    print(f"wrote {args.site} to {args.folder}")
-
-
-if __name__ == "__main__":
-    main()
