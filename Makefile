@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint format docs bench clean
+.PHONY: demo test lint format docs bench scenarios clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -28,6 +28,9 @@ format: $(STAMP)
 	$(VENV)/bin/ruff check --fix .
 	$(VENV)/bin/ruff format .
 
+scenarios: $(STAMP)
+	$(VENV)/bin/wheelnav scenarios scenarios/*.yaml --reports scenario-reports
+
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[bench]'
 	$(VENV)/bin/wheelnav bench planner
@@ -36,4 +39,4 @@ docs: $(STAMP)
 	$(PY) -m services.tools.docs
 
 clean:
-	rm -rf $(VENV) demo-report.json
+	rm -rf $(VENV) demo-report.json scenario-reports

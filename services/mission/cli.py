@@ -25,6 +25,49 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quiet", action="store_true", help="only print the report")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(run=run)
+    t = sub.add_parser(
+        "scenarios",
+        help="run several scenarios and print a table",
+        description="Run each scenario in turn (quietly) and print one table of the results.",
+    )
+    t.add_argument("scenarios", nargs="+", help="scenario YAML files")
+    t.add_argument("--reports", metavar="DIR", help="write each JSON report into DIR")
+    add_override_argument(t)
+    t.set_defaults(run=run_table)
+
+
+def run_table(args: argparse.Namespace) -> int:
+    """One mission after the other; a table of outcome, collisions, clearance and times."""
+    rows = []
+    for path in args.scenarios:
+        scenario = load_scenario(path, args.overrides)
+        print(f"running {scenario.name} ...", file=sys.stderr, flush=True)
+        report = MissionRun(scenario, quiet=True).run()
+        if args.reports:
+            Path(args.reports).mkdir(parents=True, exist_ok=True)
+            write_report(report, Path(args.reports) / f"{scenario.name}.json")
+        rows.append(report)
+    print(format_table(rows))
+    return 0
+
+
+def format_table(reports: list[dict]) -> str:
+    """The scenarios table (reason shortened to fit a terminal line)."""
+    head = (
+        f"{'scenario':22s} {'result':8s} {'coll':>4s} {'clear m':>7s} {'sim s':>7s} "
+        f"{'wall s':>7s} {'loc cm':>6s}  reason"
+    )
+    lines = [head, "-" * len(head)]
+    for r in reports:
+        loc = r["localisation_error"]["rms_m"]
+        clear = r["min_clearance_m"]
+        lines.append(
+            f"{r['scenario'][:22]:22s} {'success' if r['success'] else 'FAILURE':8s} "
+            f"{r['collisions']:4d} {clear if clear is not None else float('nan'):7.3f} "
+            f"{r['sim_time_s']:7.1f} {r['wall_time_s']:7.1f} "
+            f"{100 * loc if loc is not None else float('nan'):6.1f}  {r['reason'][:60]}"
+        )
+    return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
