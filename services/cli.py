@@ -38,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"wheelnav: {exc}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # e.g. no router at the endpoint given
+        print(f"wheelnav: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # output piped into head and the like: stop quietly

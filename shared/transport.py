@@ -54,8 +54,9 @@ def open_session(transport: TransportConfig) -> zenoh.Session:
         return zenoh.open(zenoh_config(transport))
     except zenoh.ZError as exc:
         where = ", ".join(transport.connect or transport.listen) or "default endpoints"
+        reason = str(exc).split("  at ")[0].strip()  # drop zenoh's source location
         raise RuntimeError(
-            f"cannot open a Zenoh {transport.mode} session ({where}): {exc}"
+            f"cannot open a Zenoh {transport.mode} session ({where}): {reason}"
         ) from None
 
 

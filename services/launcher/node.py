@@ -41,6 +41,7 @@ class _Child:
     restart_at: float | None = None
     restarts: int = 0
     given_up: bool = False
+    last_error: str = ""
     reader: threading.Thread | None = field(default=None, repr=False)
 
 
@@ -96,6 +97,10 @@ class Supervisor:
         """Services that exited with a configuration error (not restarted)."""
         return [c.spec.name for c in self._children.values() if c.given_up]
 
+    def last_error(self, name: str) -> str:
+        """The last error line a service printed ("" if none)."""
+        return self._children[name].last_error
+
     def say(self, text: str) -> None:
         self._print(prefix("launcher", len(self._children), self._width, self.colour), text)
 
@@ -140,13 +145,16 @@ class Supervisor:
         child.restart_at = None
         tag = prefix(child.spec.name, child.index, self._width, self.colour)
         child.reader = threading.Thread(
-            target=self._pump, args=(child.proc.stdout, tag), daemon=True
+            target=self._pump, args=(child, child.proc.stdout, tag), daemon=True
         )
         child.reader.start()
 
-    def _pump(self, stream: TextIO, tag: str) -> None:
+    def _pump(self, child: _Child, stream: TextIO, tag: str) -> None:
         for line in stream:
-            self._print(tag, line.rstrip("\n"))
+            text = line.rstrip("\n")
+            if " E " in f" {text[:2]}" or "error" in text:
+                child.last_error = text
+            self._print(tag, text)
 
     def _print(self, tag: str, text: str) -> None:
         with self._out_lock:
@@ -181,12 +189,22 @@ class Supervisor:
 
 
 def wait_ready(
-    bus: Bus, keys: Keys, names: list[str], timeout_s: float, stop: threading.Event | None = None
+    bus: Bus,
+    keys: Keys,
+    names: list[str],
+    timeout_s: float,
+    stop: threading.Event | None = None,
+    supervisor: Supervisor | None = None,
 ) -> list[str]:
-    """Wait until every service in ``names`` holds its liveliness token; returns the missing."""
+    """Wait until every service in ``names`` holds its liveliness token; returns the missing.
+
+    Gives up early when ``stop`` is set or a supervised service exited with a config error.
+    """
     deadline = time.monotonic() + timeout_s
     missing = set(names)
     while missing and time.monotonic() < deadline and not (stop and stop.is_set()):
+        if supervisor is not None and supervisor.failed():
+            break
         missing -= {k.rsplit("/", 1)[-1] for k in bus.alive(keys.key("alive"), 0.5)}
         if missing:
             time.sleep(0.1)

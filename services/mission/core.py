@@ -16,6 +16,7 @@ import numpy as np
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
 from shared.messages import NavStatus, Pose2D, SimStatus
+from shared.site import load_site
 
 SCENARIO_KEYS = {"name", "site", "seed", "time_limit_s", "start", "goal", "config", "description"}
 TERMINAL = ("succeeded", "failed", "cancelled")
@@ -51,6 +52,7 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     site = Path(data["site"])
     if not site.is_absolute():
         site = (path.parent / site).resolve()
+    load_site(site)  # a missing or malformed site fails here, in one line, not in 5 services
     fleet = config_mod.merge(
         data.get("config") or {},
         {

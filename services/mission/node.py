@@ -92,11 +92,21 @@ class MissionRun:
             self.supervisor.start()
             try:
                 missing = wait_ready(
-                    bus, self.keys, [s.name for s in specs], cfg.launcher.ready_timeout_s, self.done
+                    bus,
+                    self.keys,
+                    [s.name for s in specs],
+                    cfg.launcher.ready_timeout_s,
+                    self.done,
+                    supervisor=self.supervisor,
                 )
                 if missing:
                     self.recorder.state = "failed"
-                    self.recorder.reason = f"services not up: {', '.join(missing)}"
+                    failed = self.supervisor.failed()
+                    self.recorder.reason = (
+                        "; ".join(f"{name}: {self.supervisor.last_error(name)}" for name in failed)
+                        if failed
+                        else f"services not up: {', '.join(missing)}"
+                    )
                 else:
                     bus.declare_alive(self.keys.key("alive", service=NAME))
                     wall_limit = self.scenario.time_limit_s * 20 + 120

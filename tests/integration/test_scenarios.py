@@ -57,3 +57,23 @@ def test_pedestrian_stepping_into_the_path_is_waited_for() -> None:
     assert report["cross_track_rms_m"] < 0.10  # it waited rather than swerving round
     demo, _ = run("demo")
     assert report["sim_time_s"] > demo["sim_time_s"] + 1.0  # and lost time doing so
+
+
+def test_a_service_config_error_ends_the_mission_at_once_with_its_reason() -> None:
+    out = Capture()
+    scenario = load_scenario(
+        ROOT / "scenarios" / "demo.yaml", ["building.doors={door_zz: {start_open: true}}"]
+    )
+    report = MissionRun(scenario, out=out, fleet_output=out).run()
+    assert not report["success"]
+    assert "building.doors.door_zz: no such door in site two_rooms" in report["reason"]
+    assert report["wall_time_s"] < 30
+
+
+def test_missing_site_is_refused_before_anything_starts(tmp_path) -> None:
+    from shared.config import ConfigError
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("site: nowhere\nstart: {place: a}\ngoal: {place: b}\n")
+    with pytest.raises(ConfigError, match="no such site or map file"):
+        load_scenario(bad)
