@@ -52,7 +52,6 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     site = Path(data["site"])
     if not site.is_absolute():
         site = (path.parent / site).resolve()
-    load_site(site)  # a missing or malformed site fails here, in one line, not in 5 services
     fleet = config_mod.merge(
         data.get("config") or {},
         {
@@ -93,6 +92,7 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     limit = data.get("time_limit_s", 300.0)
     if not isinstance(limit, int | float) or limit <= 0:
         raise ConfigError(f"{path}: time_limit_s: must be > 0, got {limit!r}")
+    load_site(site)  # a missing or malformed site fails here, in one line, not in 5 services
     return Scenario(str(data.get("name", path.stem)), cfg, goal, place, float(limit), path)
 
 
