@@ -31,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     launcher_cli.add_commands(sub)
     mission_cli.add_commands(sub)
     tools_cli.add_commands(sub)
+    tools_cli.add_tree_command(sub)
     bench_cli.add_commands(sub)
     args = parser.parse_args(argv)
     try:

@@ -373,6 +373,30 @@ class NavStatus(Msg):
     progress: float = 0.0
 
 
+@message("tree_node")
+@dataclass
+class TreeNode(Msg):
+    """One behaviour of a tree snapshot: its place, kind, status and feedback."""
+
+    id: int
+    parent: int  # -1 for the root
+    name: str
+    kind: str  # Sequence, Selector, decorator or leaf class name
+    status: str  # SUCCESS, FAILURE, RUNNING, INVALID
+    feedback: str = ""
+
+
+@message("tree_snapshot")
+@dataclass
+class TreeSnapshot(Msg):
+    """The navigator's behaviour tree after a tick (as py_trees_ros streams it)."""
+
+    stamp: float
+    goal_id: str
+    tree: str
+    nodes: list[TreeNode] = field(default_factory=list)
+
+
 @message("event")
 @dataclass
 class Event(Msg):

@@ -159,6 +159,15 @@ TOPICS: tuple[Topic, ...] = (
         "mission state, on change and at 2 Hz",
     ),
     Topic(
+        "tree",
+        "{ns}/nav/tree",
+        m.TreeSnapshot,
+        "pub",
+        "navigator",
+        "wheelnav tree, viz",
+        "behaviour tree snapshot on every change",
+    ),
+    Topic(
         "events", "{ns}/events/{source}", m.Event, "pub", "any service", "user", "notable events"
     ),
     Topic(

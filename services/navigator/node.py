@@ -15,6 +15,7 @@ import py_trees
 from py_trees.common import Access, Status
 
 from behaviours.mission import NS, create_plan_tree, create_route_tree
+from behaviours.snapshot import signature, snapshot
 from shared.lockstep import Participant
 from shared.messages import (
     Availability,
@@ -148,6 +149,8 @@ class Navigator:
         self.tree: py_trees.trees.BehaviourTree | None = None
         self.status = NavStatus(0.0, "", "idle")
         self._last_sent: tuple | None = None
+        self._tree_sig: tuple | None = None
+        self._tree_sent_at = -1e9
         self._last_sent_at = -1e9
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
         for key in ("goal", "place", "failure", "phase", "route", "blocked"):
@@ -188,6 +191,7 @@ class Navigator:
         self.fleet.clock = clock
         if self.tree is not None and self.status.state == "running":
             self.tree.tick()
+            self._stream_tree(clock.stamp)
             result = self.tree.root.status
             if result == Status.SUCCESS and self.stage == "plan":
                 self.stage = "route"
@@ -221,6 +225,14 @@ class Navigator:
                     reason=tip.feedback_message if tip else "",
                 )
         self._publish(clock.stamp)
+
+    def _stream_tree(self, now: float) -> None:
+        """Publish a snapshot when the tree's statuses change (feedback alone: at 2 Hz)."""
+        snap = snapshot(self.tree.root, now, self.status.goal_id)
+        sig = signature(snap)
+        if sig != self._tree_sig or now - self._tree_sent_at >= 0.5:
+            self.svc.bus.publish(self.svc.keys.tree, snap)
+            self._tree_sig, self._tree_sent_at = sig, now
 
     def _replan(self) -> bool:
         """After a door or lift failed: avoid it and plan again (bounded). False if not."""
@@ -302,6 +314,7 @@ def main(argv: list[str] | None = None) -> None:
             svc.declare("subscribes", keys.key("lift_state")), LiftState, fleet.on_lift_state
         )
         svc.declare("publishes", keys.nav_status)
+        svc.declare("publishes", keys.tree)
         svc.declare("publishes", keys.path)
         svc.declare("queries", keys.route)
         fleet.participant = svc.every(svc.cfg.navigator.rate_hz, nav.step)

@@ -9,14 +9,16 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import sys
 import threading
 import time
 from collections import defaultdict
 
-from services.tools.core import RateMeter, summarise
+from services.tools.core import RateMeter, render_tree, summarise
 from shared.codec import DecodeError, decode, peek_tag, to_plain
 from shared.config import TransportConfig
-from shared.topics import ROOT
+from shared.messages import TreeSnapshot
+from shared.topics import ROOT, Keys
 from shared.transport import Bus, open_session
 
 
@@ -51,6 +53,43 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     hz.add_argument("--window", type=int, default=100, help="messages in the rate window")
     hz.add_argument("--duration", type=float, default=0.0, help="stop after S seconds")
     hz.set_defaults(run=run_hz)
+
+
+def add_tree_command(sub: argparse._SubParsersAction) -> None:
+    t = sub.add_parser(
+        "tree",
+        help="show the navigator's live behaviour tree",
+        description="Show the navigator's behaviour tree as it runs.",
+    )
+    t.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        default="tcp/127.0.0.1:7447",
+        help="router to reach (default: local)",
+    )
+    t.add_argument("--robot", default="chair1")
+    t.add_argument("--once", action="store_true", help="print one snapshot and exit")
+    t.add_argument("--duration", type=float, default=0.0, help="stop after S seconds")
+    t.set_defaults(run=run_tree)
+
+
+def run_tree(args: argparse.Namespace) -> int:
+    bus = _bus(args)
+    stop = threading.Event()
+    shown = [0]
+    redraw = sys.stdout.isatty() and not args.once
+
+    def on_snapshot(snap: TreeSnapshot) -> None:
+        text = render_tree(snap)
+        print(("\033[2J\033[H" if redraw else "") + text + ("" if redraw else "\n"), flush=True)
+        shown[0] += 1
+        if args.once:
+            stop.set()
+
+    bus.subscribe(Keys(args.robot).tree, TreeSnapshot, on_snapshot)
+    _wait(stop, args.duration)
+    bus.close()
+    return 0 if shown[0] else 1
 
 
 def _bus(args: argparse.Namespace) -> Bus:

@@ -235,6 +235,26 @@ def test_killed_controller_stops_the_chair_and_is_restarted(fleet) -> None:
     else:
         pytest.fail("the chair never got moving:\n" + out.text()[-3000:])
 
+    shown = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "services.cli",
+            "tree",
+            "--once",
+            "--duration",
+            "20",
+            "--connect",
+            _endpoint,
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert shown.returncode == 0, shown.stderr
+    assert "goal kill-test" in shown.stdout and "[Selector]" in shown.stdout
+
     old_pid = sup.pid("controller")
     os.kill(old_pid, signal.SIGKILL)
     time.sleep(0.3)
