@@ -196,6 +196,8 @@ class ControllerConfig:
     start_align_deg: float = field(default=5.0, metadata=check(_positive))
     start_align_m: float = field(default=0.3, metadata=check(_non_negative))
     pose_timeout_s: float = field(default=0.5, metadata=check(_positive))
+    scan_timeout_s: float = field(default=0.5, metadata=check(_positive))
+    stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
 
 
 @dataclass
@@ -208,6 +210,7 @@ class NavigatorConfig:
     door_timeout_s: float = field(default=60.0, metadata=check(_positive))
     lift_timeout_s: float = field(default=120.0, metadata=check(_positive))
     max_replans: int = field(default=3, metadata=check(_non_negative))
+    safety_timeout_s: float = field(default=60.0, metadata=check(_positive))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
 

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from services.controller.safety import guard
 from services.controller.tracking import Tracker
 from shared.messages import Clock, FollowStatus, Odometry, Path, PointCloud, PoseEstimate, Twist
 from shared.service import Service
@@ -92,11 +93,22 @@ def main(argv: list[str] | None = None) -> None:
                     fresh,
                     1.0 / cc.rate_hz,
                 )
-                cmd_v, cmd_w = cmd.v, cmd.w
+                cmd_v, cmd_w, state = guard(
+                    cmd.v,
+                    cmd.w,
+                    cmd.state,
+                    clock.stamp,
+                    fresh,
+                    scan.stamp if scan is not None else None,
+                    scan.points if scan is not None else None,
+                    cfg.robot.footprint,
+                    cc,
+                    cfg.localisation.scan_band_m,
+                )
                 status = FollowStatus(
                     clock.stamp,
                     tracker.path_id,
-                    cmd.state,
+                    state,
                     cmd.progress,
                     cmd.distance_to_goal,
                     cmd.cross_track,

@@ -1,0 +1,53 @@
+"""The controller's last check before a command leaves: stale inputs and the stop zone.
+
+A command is replaced by zero (and the reason reported as the follow state) when the
+pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when a LiDAR
+point lies in the stop zone: the strip ``stop_distance_m`` long in front of the
+footprint (behind it when reversing), as wide as the chair. Points beside the chair (a
+door's jambs) do not stop it. Pure: points come in the robot frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from shared.config import ControllerConfig, Footprint
+
+
+def stop_zone_hit(
+    points: np.ndarray, fp: Footprint, v: float, stop_distance_m: float, band_m: float
+) -> bool:
+    """True if a point (N, 3, robot frame) is in the strip the chair is about to drive into."""
+    if points is None or len(points) == 0 or abs(v) < 1e-3:
+        return False
+    pts = points[np.abs(points[:, 2]) < band_m]
+    lateral = np.abs(pts[:, 1]) <= fp.width / 2 + 0.02
+    if v > 0:
+        ahead = (pts[:, 0] >= fp.front) & (pts[:, 0] <= fp.front + stop_distance_m)
+    else:
+        ahead = (pts[:, 0] <= -fp.rear) & (pts[:, 0] >= -fp.rear - stop_distance_m)
+    return bool(np.any(lateral & ahead))
+
+
+def guard(
+    v: float,
+    w: float,
+    state: str,
+    now: float,
+    pose_ok: bool,
+    scan_stamp: float | None,
+    scan_points: np.ndarray | None,
+    fp: Footprint,
+    cfg: ControllerConfig,
+    band_m: float,
+) -> tuple[float, float, str]:
+    """(v, w, state) after the safety checks; state names the reason when it stops."""
+    if not pose_ok:
+        return 0.0, 0.0, "stale_pose" if state not in ("arrived", "idle") else state
+    if state in ("arrived", "idle"):
+        return v, w, state
+    if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
+        return 0.0, 0.0, "stale_scan"
+    if stop_zone_hit(scan_points, fp, v, cfg.stop_distance_m, band_m):
+        return 0.0, 0.0, "obstacle"
+    return v, w, state

@@ -1,0 +1,42 @@
+"""The controller's last check: stale inputs and the stop zone stop the chair."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from services.controller.safety import guard, stop_zone_hit
+from shared.config import ControllerConfig, Footprint
+
+FP = Footprint()
+CFG = ControllerConfig()
+
+
+def pts(*xy: tuple[float, float]) -> np.ndarray:
+    return np.array([[x, y, 0.0] for x, y in xy], dtype=np.float32)
+
+
+def test_stop_zone_is_the_strip_ahead_not_beside() -> None:
+    assert stop_zone_hit(pts((0.9, 0.0)), FP, 0.3, 0.25, 0.5)  # right in front
+    assert not stop_zone_hit(pts((0.9, 0.5)), FP, 0.3, 0.25, 0.5)  # a door jamb, beside
+    assert not stop_zone_hit(pts((1.2, 0.0)), FP, 0.3, 0.25, 0.5)  # farther than the strip
+    assert not stop_zone_hit(pts((0.9, 0.0)), FP, -0.2, 0.25, 0.5)  # reversing: look behind
+    assert stop_zone_hit(pts((-0.45, 0.1)), FP, -0.2, 0.25, 0.5)
+    assert not stop_zone_hit(pts((0.9, 0.0)), FP, 0.0, 0.25, 0.5)  # standing still
+
+
+def test_guard_reasons() -> None:
+    ok = dict(now=10.0, scan_points=pts((3.0, 0.0)), fp=FP, cfg=CFG, band_m=0.5)
+    assert guard(0.3, 0.1, "following", pose_ok=True, scan_stamp=9.9, **ok) == (
+        0.3,
+        0.1,
+        "following",
+    )
+    assert guard(0.3, 0.1, "following", pose_ok=False, scan_stamp=9.9, **ok)[2] == "stale_pose"
+    assert guard(0.3, 0.1, "following", pose_ok=True, scan_stamp=9.0, **ok)[2] == "stale_scan"
+    blocked = dict(ok, scan_points=pts((0.85, 0.1)))
+    assert guard(0.3, 0.1, "following", pose_ok=True, scan_stamp=9.9, **blocked) == (
+        0.0,
+        0.0,
+        "obstacle",
+    )
+    assert guard(0.0, 0.0, "arrived", pose_ok=True, scan_stamp=None, **ok)[2] == "arrived"
