@@ -58,6 +58,7 @@ class MPCConfig:
     w_track: float = 2.0  # cross-track distance to the path: squared, linear beyond huber
     track_huber_m: float = 0.2  # beyond this the tracking cost grows linearly (side steps)
     w_progress: float = 1.0  # share of the arc length v_ref would cover that is not covered
+    progress_running: float = 0.3  # part of that charged at every step, the rest at the end
     w_heading: float = 0.5  # 1 - cos(heading error to the nearest path segment)
     w_speed_ref: float = 0.5  # (v - v_ref)^2, v_ref from the path at the projected point
     w_speed_window: float = 10.0  # squared excess outside [v_window_min, v_window_max]
@@ -99,6 +100,8 @@ class MPCConfig:
             raise ValueError("threads must be >= 0 (0 = all)")
         if not (self.wall_influence_m > 0 and self.obstacle_influence_m > 0):
             raise ValueError("influence distances must be > 0")
+        if not 0.0 <= self.progress_running <= 1.0:
+            raise ValueError("progress_running must be in [0, 1]")
 
 
 @dataclass
@@ -169,6 +172,8 @@ class _Scene:
     goal: np.ndarray  # (2,)
     goal_on: bool
     params: np.ndarray  # s_now, expected progress, huber, threshold, influences, window
+    s_exp: np.ndarray  # (T,) arc length v_ref would cover from s_now by each step
+    s_wt: np.ndarray  # progress shortfall weights: every step, extra at the last step
     weights: np.ndarray  # see _WEIGHTS
 
 
@@ -388,16 +393,23 @@ class SamplingMPC:
                 best_d, best_s = d, float(self._s[j] + t * math.sqrt(l2))
         return best_s, best_d
 
-    def _expected_progress(self, s_now: float) -> float:
-        """Arc length the path's v_ref would cover over the horizon from ``s_now``.
+    def _expected_progress(self, s_now: float) -> np.ndarray:
+        """Arc length the path's v_ref would cover from ``s_now`` by each step (T,).
 
         The progress term charges the shortfall against it, never rewards more: a plain
-        reward for arc length would also push the chair past v_ref.
+        reward for arc length would also push the chair past v_ref. ``progress_running``
+        of it is charged at every step, the rest at the horizon's end. Charging only the
+        end let a rollout wait first and hurry later for the same cost, and with clearance
+        costs ahead (a 1.0 m door) waiting was cheaper: as the horizon receded the chair
+        dithered before the door for ever. Charging only the steps makes it rush straight
+        at an obstacle and turn too late (the box scene), hence the blend.
         """
         s, ds, n = s_now, self._vtab_ds, len(self._vtab)
-        for _ in range(self.cfg.steps):
+        out = np.empty(self.cfg.steps)
+        for k in range(self.cfg.steps):
             s += self._vtab[min(int(s / ds), n - 1)] * self.cfg.dt
-        return min(s, self._total) - s_now
+            out[k] = min(s, self._total) - s_now
+        return out
 
     def _horizon_reach(self) -> float:
         """How far any rollout can get (m)."""
@@ -437,10 +449,11 @@ class SamplingMPC:
                 r.max_turn_accel * cfg.dt,
             ]
         )
+        s_exp = self._expected_progress(s_now)
         params = np.array(
             [
                 s_now,
-                self._expected_progress(s_now),
+                s_exp[-1],
                 cfg.track_huber_m,
                 self._threshold,
                 cfg.wall_influence_m,
@@ -465,6 +478,8 @@ class SamplingMPC:
             goal=self._pts[-1].copy(),
             goal_on=bool(last_leg and to_goal < cfg.goal_radius_m),
             params=params,
+            s_exp=s_exp,
+            s_wt=np.array([cfg.progress_running, (1.0 - cfg.progress_running) * cfg.steps]),
             weights=self._weights,
         )
 
@@ -579,6 +594,8 @@ class SamplingMPC:
                 scene.goal,
                 scene.goal_on,
                 scene.params,
+                scene.s_exp,
+                scene.s_wt,
                 scene.weights,
                 cost,
                 col,
@@ -743,7 +760,7 @@ def _evaluate_numpy(
     x0, y0, th0, v0, w0 = sc.state
     dt, vmin, vmax, wmax, dvmax, dwmax = sc.limits
     sv, sw, rho = sc.sigma
-    s_now, s_ref, huber, thr, inf_w, inf_o, win_lo, win_hi = sc.params
+    s_now, _, huber, thr, inf_w, inf_o, win_lo, win_hi = sc.params
     f32 = np.float32
     eps = noise.copy()
     if rho > 0:
@@ -818,9 +835,14 @@ def _evaluate_numpy(
         + wt[7] * obst
         + wt[8] * goal
     )
+    s_exp = sc.s_exp.astype(f32)
+    on = s_exp > 1e-3
+    if on.any():
+        short = np.maximum(1.0 - (best_s[:, on] - f32(s_now)) / s_exp[on], 0.0)
+        per_step[:, on] += wt[9] * sc.s_wt[0] * short
+        if on[-1]:
+            per_step[:, -1] += wt[9] * sc.s_wt[1] * short[:, -1]
     cost[:] = per_step.sum(axis=1, dtype=np.float64) / t
-    if s_ref > 1e-3:
-        cost += wt[9] * np.maximum(1.0 - (best_s[:, -1] - s_now) / s_ref, 0.0)
 
 
 # --------------------------------------------------------------------------------------
@@ -895,6 +917,8 @@ def _kernel(
     goal,
     goal_on,
     params,
+    s_exp,
+    s_wt,
     wt,
     cost,
     col,
@@ -912,7 +936,7 @@ def _kernel(
     )
     sv, sw, rho = sigma[0], sigma[1], sigma[2]
     beta = math.sqrt(1.0 - rho * rho)
-    s_now, s_ref, huber, thr = params[0], params[1], params[2], params[3]
+    s_now, huber, thr = params[0], params[2], params[3]
     inf_w, inf_o, win_lo, win_hi = params[4], params[5], params[6], params[7]
     cuts = np.array([max(inf_w, thr), max(inf_o, thr)])
     n_seg = plen.shape[0]
@@ -922,8 +946,7 @@ def _kernel(
         x, y, th, vp, wp = x0, y0, th0, v0, w0
         ev, ew = 0.0, 0.0
         a_track = a_head = a_ref = a_win = a_turn = a_smooth = 0.0
-        a_wall = a_obs = a_goal = 0.0
-        s_last = s_now
+        a_wall = a_obs = a_goal = a_prog = 0.0
         hit = False
         for k in range(t_n):
             if k == 0:
@@ -971,7 +994,9 @@ def _kernel(
             a_turn += w * w
             a_smooth += (v - vp) * (v - vp) + (w - wp) * (w - wp)
             vp, wp = v, w
-            s_last = best_s
+            if s_exp[k] > 1e-3:
+                short = max(1.0 - (best_s - s_now) / s_exp[k], 0.0)
+                a_prog += short * (s_wt[0] + (s_wt[1] if k == t_n - 1 else 0.0))
 
             if has_wall or has_obs:
                 cw, co = _clearances(
@@ -997,10 +1022,9 @@ def _kernel(
             + wt[6] * a_wall
             + wt[7] * a_obs
             + wt[8] * a_goal
+            + wt[9] * a_prog
         )
         cost[i] = total / t_n
-        if s_ref > 1e-3:
-            cost[i] += wt[9] * max(1.0 - (s_last - s_now) / s_ref, 0.0)
         col[i] = hit
 
 

@@ -276,6 +276,34 @@ def test_passes_a_one_metre_door_without_touching() -> None:
     assert result["min_clearance_m"] > 0.0
 
 
+def short_door_scene():
+    """The 1.0 m door scene, the chair at rest 1.0 m before the door on its centre line,
+    a 2.2 m path straight through at 0.2 m/s and a LiDAR scan of the jambs and walls."""
+    scene = door_scene()  # the door wall is x in [3.9, 4.1], the opening |y| < 0.5
+    path = np.linspace((3.0, 0.0), (5.2, 0.0), 10)
+    v_ref = np.full(10, 0.2)
+    v_ref[-1] = 0.0
+    scene = replace(scene, path=path, v_ref=v_ref, start=(3.0, 0.0, 0.0))
+    return replace(scene, obstacles=lidar_scan(scene, 3.0, 0.0))
+
+
+@pytest.mark.parametrize("selection", ["mppi", "cluster"])
+def test_starts_through_a_door_just_ahead(selection: str) -> None:
+    """Near the jambs every step costs clearance; with progress charged only at the
+    horizon's end, waiting first and hurrying later was cheaper than going now, and as the
+    horizon receded the chair dithered before the door for ever."""
+    trace: list = []
+    cfg = MPCConfig(selection=selection, **ONE)
+    result = closed_loop(cfg, short_door_scene(), period_s=0.1, max_time_s=20.0, trace=trace)
+    assert result["state"] == "arrived"
+    assert result["min_clearance_m"] > 0.0
+    assert min(row[3] for row in trace) > -0.05  # no backing off before the door
+    stalled = closed_loop(
+        replace(cfg, progress_running=0.0), short_door_scene(), period_s=0.1, max_time_s=20.0
+    )
+    assert stalled["state"] == "following"  # the old end-only charge: still before the door
+
+
 def test_cluster_selection_also_follows_the_l() -> None:
     result = closed_loop(MPCConfig(selection="cluster", **ONE), l_corridor_scene(), period_s=0.1)
     assert result["state"] == "arrived" and result["rms_cross_track_m"] < 0.10
