@@ -284,7 +284,7 @@ class RouteRequest(Msg):
     avoid: list[str] = field(default_factory=list)
 
 
-@message("checkpoint")
+@message("checkpoint", version=2)
 @dataclass
 class Checkpoint(Msg):
     """A door or elevator between two legs of a route, with the poses to drive to.
@@ -304,9 +304,10 @@ class Checkpoint(Msg):
     door_type: str = ""
     width_m: float = 0.0
     to_floor: str = ""
+    centre: Pose2D | None = None  # the door's (or car door's) middle, heading = approach's
 
 
-@message("route_reply", version=2)
+@message("route_reply", version=3)
 @dataclass
 class RouteReply(Msg):
     """The planner's answer: legs joined by checkpoints, or an error code and a reason.

@@ -159,6 +159,15 @@ TOPICS: tuple[Topic, ...] = (
         "mission state, on change and at 2 Hz",
     ),
     Topic(
+        "nav_route",
+        "{ns}/nav/route",
+        m.RouteReply,
+        "pub",
+        "navigator",
+        "mission runner, viz",
+        "the route being driven (after each (re)plan)",
+    ),
+    Topic(
         "tree",
         "{ns}/nav/tree",
         m.TreeSnapshot,

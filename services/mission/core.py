@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from services.mission.checkpoints import CheckpointLog
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
 from shared.messages import NavStatus, Pose2D, SimStatus
@@ -120,6 +121,7 @@ class Recorder:
     _truth: dict[float, tuple[float, float, float]] = field(default_factory=dict)
     _loc_sq: list[tuple[float, float]] = field(default_factory=list)
     _track_sq: list[float] = field(default_factory=list)
+    checkpoints: CheckpointLog = field(default_factory=CheckpointLog)
 
     @property
     def finished(self) -> bool:
@@ -214,6 +216,7 @@ class Recorder:
             "cross_track_rms_m": round(float(np.sqrt(np.mean(self._track_sq))), 4)
             if self._track_sq
             else None,
+            "checkpoints": self.checkpoints.done,
             "phases": [
                 {
                     "name": p.name,

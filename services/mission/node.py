@@ -32,6 +32,7 @@ from shared.messages import (
     NavStatus,
     Odometry,
     PoseEstimate,
+    RouteReply,
     SimStatus,
 )
 from shared.topics import Keys
@@ -131,7 +132,10 @@ class MissionRun:
         bus.subscribe(
             keys.ground_truth,
             Odometry,
-            lambda m: self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp),
+            self._on_truth,
+        )
+        bus.subscribe(
+            keys.nav_route, RouteReply, lambda m: self.recorder.checkpoints.on_route(m.checkpoints)
         )
         bus.subscribe(
             keys.follow_status,
@@ -177,6 +181,13 @@ class MissionRun:
         if self.recorder.finished:
             self.done.set()
 
+    def _on_truth(self, m: Odometry) -> None:
+        self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp)
+        if not self.recorder.finished:
+            self.recorder.checkpoints.on_truth(
+                m.stamp, m.pose.x, m.pose.y, m.pose.theta, m.v, m.pose.floor
+            )
+
     def _on_event(self, msg: Event) -> None:
         self.recorder.events.append(
             {"t": round(msg.stamp, 3), "source": msg.source, "kind": msg.kind, "detail": msg.detail}
@@ -216,6 +227,17 @@ def format_report(report: dict[str, Any]) -> str:
         lines.append(
             f"  localisation error: RMS {100 * loc['rms_m']:.1f} cm, max "
             f"{100 * loc['max_m']:.1f} cm, heading RMS {loc['rms_deg']:.2f} deg"
+        )
+    for c in report.get("checkpoints", []):
+        extra = (
+            f"lateral offset {c['lateral_offset_m']} m"
+            if c["kind"] == "door"
+            else f"to floor {c['to_floor']}"
+        )
+        lines.append(
+            f"  {c['kind']:8s} {c['id']:14s} wait {c['wait_s']} s, position error "
+            f"{c['position_error_m']} m, heading error {c['heading_error_deg']} deg, "
+            f"{extra}"
         )
     for p in report["phases"]:
         end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"

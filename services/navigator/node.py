@@ -201,6 +201,7 @@ class Navigator:
             result = self.tree.root.status
             if result == Status.SUCCESS and self.stage == "plan":
                 self.stage = "route"
+                self.svc.bus.publish(self.svc.keys.nav_route, self.bb.route)
                 c = self.cfg
                 fp = self.svc.cfg.robot.footprint
                 self._grow(
@@ -348,6 +349,7 @@ def main(argv: list[str] | None = None) -> None:
         )
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.tree)
+        svc.declare("publishes", keys.nav_route)
         svc.declare("publishes", keys.path)
         svc.declare("queries", keys.route)
         fleet.participant = svc.every(svc.cfg.navigator.rate_hz, nav.step)

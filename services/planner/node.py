@@ -56,6 +56,7 @@ def _checkpoint(c: Checkpoint) -> m.Checkpoint:
         c.door_type,
         c.width_m,
         c.to_floor,
+        m.Pose2D(c.centre[0], c.centre[1], c.approach[2], c.floor),
     )
 
 

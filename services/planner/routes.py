@@ -58,6 +58,7 @@ class Checkpoint:
     door_type: str = ""
     width_m: float = 0.0
     to_floor: str = ""
+    centre: tuple[float, float] = (0.0, 0.0)  # the door's (or car door's) middle
 
 
 @dataclass
@@ -208,6 +209,7 @@ class RoutePlanner:
             out,
             float(math.hypot(inside[0] - entry[0], inside[1] - entry[1])),
             to_floor=goal_floor,
+            centre=lift.door_centre(start_floor),
         )
         return Route(first.legs + second.legs, first.checkpoints + [ride] + second.checkpoints)
 
@@ -305,6 +307,7 @@ class RoutePlanner:
             float(np.linalg.norm(np.asarray(exit_) - np.asarray(approach))),
             door.type,
             width,
+            centre=(float(centre[0]), float(centre[1])),
         )
 
     def _free_point(

@@ -41,6 +41,8 @@ def samples() -> list[m.Msg]:
         ),
         m.Checkpoint("elevator", "lift_a", "1", pose, pose, 1.5, to_floor="2"),
         m.Availability(1.0, "door_ab", False, "stuck closed"),
+        m.TreeNode(0, -1, "Route", "Selector", "RUNNING", ""),
+        m.TreeSnapshot(1.0, "g1", "Route", [m.TreeNode(0, -1, "Route", "Selector", "RUNNING")]),
         m.BuildingBodies(
             2.0, ["d1", "d2"], np.array([0.0, 0.5]), ["lift_a"], np.array([4.0]), np.array([1.0])
         ),
