@@ -77,3 +77,14 @@ def test_missing_site_is_refused_before_anything_starts(tmp_path) -> None:
     bad.write_text("site: nowhere\nstart: {place: a}\ngoal: {place: b}\n")
     with pytest.raises(ConfigError, match="no such site or map file"):
         load_scenario(bad)
+
+
+def test_door_that_opens_late_is_waited_for_and_then_passed() -> None:
+    report, out = run("door_opens_late")
+    assert report["success"], (report["reason"], out[-2000:])
+    assert report["collisions"] == 0
+    (door,) = report["checkpoints"]
+    # opened at 20 s, a sliding 1.0 m door is fully open 5 s later: not one step before
+    assert door["id"] == "door_ab" and door["set_off_s"] >= 25.0
+    assert door["wait_s"] > 10.0
+    assert abs(door["lateral_offset_m"]) < 0.05 and door["position_error_m"] < 0.15
