@@ -88,3 +88,14 @@ def test_door_that_opens_late_is_waited_for_and_then_passed() -> None:
     assert door["id"] == "door_ab" and door["set_off_s"] >= 25.0
     assert door["wait_s"] > 10.0
     assert abs(door["lateral_offset_m"]) < 0.05 and door["position_error_m"] < 0.15
+
+
+@pytest.mark.parametrize(
+    "name", ["phase0_too_close", "phase0_too_far", "phase0_angle_15", "phase0_dist22_angle10"]
+)
+def test_seed_test_1_position_correction(name: str) -> None:
+    report, out = run(name)
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
+    door = report["checkpoints"][0]
+    assert door["position_error_m"] <= 0.15 and door["heading_error_deg"] <= 5.0
+    assert door["set_off_s"] < 10.0  # position correction done in under 10 s
