@@ -6,30 +6,20 @@ the building reports, and every wait sits under a timeout in the tree that uses 
 
 from __future__ import annotations
 
-import py_trees
-from py_trees.common import Access, Status
+from py_trees.common import Status
 
+from behaviours.fleet import FleetBehaviour
 from shared.messages import LiftDoor, LiftMotion
 
 MODE_OFFLINE = 4  # rmf_lift_msgs LiftState.MODE_OFFLINE
-NS = "/mission"
 
 
-class _LiftBehaviour(py_trees.behaviour.Behaviour):
-    """Reaches the fleet through ``setup(fleet=...)``; records failures on the blackboard."""
+class _LiftBehaviour(FleetBehaviour):
+    """A fleet behaviour about one lift."""
 
     def __init__(self, name: str, lift_id: str) -> None:
         super().__init__(name)
         self.lift_id = lift_id
-        self.fleet = None
-        self.bb = self.attach_blackboard_client(name=name, namespace=NS)
-        for key in ("phase", "failure", "blocked"):
-            self.bb.register_key(key, access=Access.WRITE)
-
-    def setup(self, **kwargs) -> None:
-        if "fleet" not in kwargs:
-            raise KeyError(f"{self.name}: setup needs fleet=<Fleet>")
-        self.fleet = kwargs["fleet"]
 
 
 class RequestLift(_LiftBehaviour):

@@ -9,6 +9,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
+import py_trees
+from py_trees.common import Access, Status
+
 from shared.messages import FollowStatus, LiftState, Path, Pose2D, PoseEstimate, RouteReply
 
 
@@ -55,3 +58,34 @@ class Fleet(Protocol):
 
     def set_floor(self, floor: str) -> None:
         """Tell the localisation the chair is now on ``floor`` (same x, y, heading)."""
+
+
+NS = "/mission"
+
+
+class FleetBehaviour(py_trees.behaviour.Behaviour):
+    """Base of mission behaviours: reaches the fleet through ``setup(fleet=...)``.
+
+    Registers WRITE access to ``/mission/phase``, ``/mission/failure`` and
+    ``/mission/blocked`` (the checkpoint a failure is about, for re-planning).
+    """
+
+    phase = ""
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.fleet: Fleet | None = None
+        self.bb = self.attach_blackboard_client(name=name, namespace=NS)
+        for key in ("phase", "failure", "blocked"):
+            self.bb.register_key(key, access=Access.WRITE)
+
+    def setup(self, **kwargs) -> None:
+        if "fleet" not in kwargs:
+            raise KeyError(f"{self.name}: setup needs fleet=<Fleet>")
+        self.fleet = kwargs["fleet"]
+
+    def fail(self, reason: str) -> Status:
+        """FAILURE with ``reason`` as feedback and in ``/mission/failure``."""
+        self.feedback_message = reason
+        self.bb.failure = f"{self.name}: {reason}"
+        return Status.FAILURE

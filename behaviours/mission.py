@@ -28,37 +28,12 @@ import py_trees
 from py_trees.common import Access, Status
 
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
-from behaviours.fleet import Fleet
+from behaviours.fleet import NS, FleetBehaviour
 from behaviours.timeouts import Timeout
 from shared.messages import DoorMode, Path, RouteReply
 
-NS = "/mission"
 
-
-class _FleetBehaviour(py_trees.behaviour.Behaviour):
-    """A behaviour that reaches the fleet through ``setup(fleet=...)`` and writes ``phase``."""
-
-    phase = ""
-
-    def __init__(self, name: str) -> None:
-        super().__init__(name)
-        self.fleet: Fleet | None = None
-        self.bb = self.attach_blackboard_client(name=name, namespace=NS)
-        self.bb.register_key("phase", access=Access.WRITE)
-        self.bb.register_key("failure", access=Access.WRITE)
-
-    def setup(self, **kwargs) -> None:
-        if "fleet" not in kwargs:
-            raise KeyError(f"{self.name}: setup needs fleet=<Fleet>")
-        self.fleet = kwargs["fleet"]
-
-    def fail(self, reason: str) -> Status:
-        self.feedback_message = reason
-        self.bb.failure = f"{self.name}: {reason}"
-        return Status.FAILURE
-
-
-class ComputeRoute(_FleetBehaviour):
+class ComputeRoute(FleetBehaviour):
     """Ask the planner for a route to the goal; RUNNING until it answers.
 
     Sends the request in ``initialise``. SUCCESS with ``/mission/route`` written when the
@@ -108,7 +83,7 @@ class ComputeRoute(_FleetBehaviour):
         self._token = None
 
 
-class FollowPath(_FleetBehaviour):
+class FollowPath(FleetBehaviour):
     """Send ``path`` to the controller and wait until it reports arrival.
 
     RUNNING while the controller follows; SUCCESS on ``arrived`` for this path. A controller
@@ -175,7 +150,7 @@ class FollowPath(_FleetBehaviour):
             self.fleet.stop()
 
 
-class StopChair(_FleetBehaviour):
+class StopChair(FleetBehaviour):
     """Command the controller to drop its path (zero speed). Always SUCCESS at once."""
 
     phase = "stop"
@@ -197,7 +172,7 @@ class MissionFailed(py_trees.behaviour.Behaviour):
         return Status.FAILURE
 
 
-class RequestDoor(_FleetBehaviour):
+class RequestDoor(FleetBehaviour):
     """Send a DoorRequest (OPEN or CLOSED) for ``door_id``. Always SUCCESS at once."""
 
     def __init__(self, door_id: str, mode: int) -> None:
@@ -211,7 +186,7 @@ class RequestDoor(_FleetBehaviour):
         return Status.SUCCESS
 
 
-class WaitForDoorOpen(_FleetBehaviour):
+class WaitForDoorOpen(FleetBehaviour):
     """RUNNING until the building reports ``door_id`` OPEN, then SUCCESS.
 
     CLOSED, MOVING, OFFLINE, UNKNOWN and no report at all are all "not open": an unknown

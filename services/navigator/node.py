@@ -14,7 +14,8 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
-from behaviours.mission import NS, create_plan_tree, create_route_tree
+from behaviours.fleet import NS
+from behaviours.mission import create_plan_tree, create_route_tree
 from behaviours.snapshot import signature, snapshot
 from shared.lockstep import Participant
 from shared.messages import (
