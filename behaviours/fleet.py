@@ -44,6 +44,9 @@ class Fleet(Protocol):
     def request_door(self, door_id: str, mode: int) -> None:
         """Ask the building to open or close ``door_id`` (a DoorMode value)."""
 
+    def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
+        """(stamp of the latest scan, "open" / "closed" / "unknown") for the door at (x, y)."""
+
     def lift_state(self, lift_id: str) -> LiftState | None:
         """The building's last LiftState of ``lift_id``."""
 

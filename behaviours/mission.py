@@ -187,30 +187,45 @@ class RequestDoor(FleetBehaviour):
 
 
 class WaitForDoorOpen(FleetBehaviour):
-    """RUNNING until the building reports ``door_id`` OPEN, then SUCCESS.
+    """RUNNING until the door is open by both accounts, then SUCCESS.
 
-    CLOSED, MOVING, OFFLINE, UNKNOWN and no report at all are all "not open": an unknown
-    door is never treated as open (the seed's weakness). The timeout above it bounds the
-    wait. Counterpart of a ``Check`` that would answer at once.
+    The building must report ``door_id`` OPEN and, when ``centre`` is given, the LiDAR
+    check (the seed's ROI method) must have said "open" in ``scans`` consecutive new
+    scans. CLOSED, MOVING, OFFLINE, UNKNOWN, no report, and a LiDAR "unknown" are all "not
+    open" (the seed took unknown for open). The timeout above it bounds the wait.
     """
 
     phase = "door"
 
-    def __init__(self, door_id: str) -> None:
+    def __init__(
+        self, door_id: str, centre: tuple[float, float] | None = None, scans: int = 3
+    ) -> None:
         super().__init__(f"WaitForDoorOpen {door_id}")
         self.door_id = door_id
+        self.centre = centre
+        self.scans = scans
+        self._agree = 0
+        self._last_scan = -1.0
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
+        self._agree, self._last_scan = 0, -1.0
         self.fleet.stop()
 
     def update(self) -> Status:
         mode = self.fleet.door_mode(self.door_id)
-        if mode == DoorMode.OPEN:
+        if self.centre is not None:
+            stamp, seen = self.fleet.lidar_door_state(*self.centre)
+            if stamp > self._last_scan:
+                self._last_scan = stamp
+                self._agree = self._agree + 1 if seen == "open" else 0
+        lidar_ok = self.centre is None or self._agree >= self.scans
+        if mode == DoorMode.OPEN and lidar_ok:
             self.feedback_message = "open"
             return Status.SUCCESS
         names = {0: "closed", 1: "moving", 3: "offline", 4: "unknown"}
-        self.feedback_message = f"door {names.get(mode, 'not reported')}, waiting"
+        seen = f", LiDAR open in {self._agree}/{self.scans} scans" if self.centre else ""
+        self.feedback_message = f"door {names.get(mode, 'not reported')}{seen}, waiting"
         return Status.RUNNING
 
 
@@ -270,7 +285,7 @@ def _door_steps(
     steps += [
         Timeout(
             f"Door {cp.id} wait",
-            WaitForDoorOpen(cp.id),
+            WaitForDoorOpen(cp.id, (cp.centre.x, cp.centre.y) if cp.centre else None),
             door_timeout_s,
             clock,
             _blocking(record, cp.id),

@@ -58,6 +58,9 @@ class Tracker:
         x, y = origin[0] + (c + 0.5) * res, origin[1] + (r + 0.5) * res
         self.mpc.set_path(np.array([[x, y], [x + 0.5, y]]), np.array([0.3, 0.0]))
         self.mpc.step(x, y, 0.0, 0.0, 0.0, None, 0.04)
+        # and with LiDAR points, as every real cycle has them: numba compiles per signature
+        near = np.array([[x + 1.5, y], [x + 1.5, y + 0.2]])
+        self.mpc.step(x, y, 0.0, 0.1, 0.0, near, 0.04)
         self.mpc.set_path(np.zeros((0, 2)), np.zeros(0))
 
     def _floor(self, floor: str) -> None:

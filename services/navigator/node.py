@@ -17,6 +17,7 @@ from py_trees.common import Access, Status
 from behaviours.fleet import NS
 from behaviours.mission import create_plan_tree, create_route_tree
 from behaviours.snapshot import signature, snapshot
+from services.navigator.door_check import door_state_from_scan
 from shared.lockstep import Participant
 from shared.messages import (
     Availability,
@@ -32,6 +33,7 @@ from shared.messages import (
     NavGoal,
     NavStatus,
     Path,
+    PointCloud,
     Pose2D,
     PoseEstimate,
     RouteReply,
@@ -57,6 +59,8 @@ class ZenohFleet:
         self._pose: PoseEstimate | None = None
         self._follow: FollowStatus | None = None
         self._doors: dict[str, int] = {}
+        self._scan: PointCloud | None = None
+        self.sensor_height_m = 1.5
         self._lifts: dict[str, LiftState] = {}
         self.avoid: set[str] = set()
         self.session = ""
@@ -105,6 +109,17 @@ class ZenohFleet:
 
     def door_mode(self, door_id: str) -> int | None:
         return self._doors.get(door_id)
+
+    def on_scan(self, msg: PointCloud) -> None:
+        self._scan = msg
+
+    def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
+        if self._scan is None or self._pose is None:
+            return -1.0, "unknown"
+        p = self._pose.pose
+        return self._scan.stamp, door_state_from_scan(
+            self._scan.points, (p.x, p.y, p.theta), (x, y), self.sensor_height_m
+        )
 
     def on_lift_state(self, msg: LiftState) -> None:
         self._lifts[msg.lift_name] = msg
@@ -348,6 +363,8 @@ def main(argv: list[str] | None = None) -> None:
         bus.subscribe(
             svc.declare("subscribes", keys.key("lift_state")), LiftState, fleet.on_lift_state
         )
+        bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, fleet.on_scan)
+        fleet.sensor_height_m = svc.cfg.robot.lidar_height_m
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.tree)
         svc.declare("publishes", keys.nav_route)

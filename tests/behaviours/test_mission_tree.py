@@ -36,6 +36,8 @@ class ScriptedFleet:
         self.lift_requests: list[tuple[str, str]] = []
         self.released: list[str] = []
         self.floor: str | None = None
+        self.scan_stamp = 0.0
+        self.lidar = "open"
 
     def now(self) -> float:
         return self.t
@@ -61,6 +63,10 @@ class ScriptedFleet:
 
     def request_door(self, door_id: str, mode: int) -> None:
         self.door_requests.append((door_id, mode))
+
+    def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
+        self.scan_stamp += 0.1
+        return self.scan_stamp, self.lidar
 
     def lift_state(self, lift_id: str):
         return self.lifts.get(lift_id)
@@ -250,3 +256,27 @@ def test_lift_out_of_service_fails_and_names_it() -> None:
     tree.tick()
     assert tree.root.status == Status.FAILURE
     assert bb.blocked == "lift_a" and "out of service" in bb.failure
+
+
+def test_lidar_must_agree_in_three_scans_before_passing() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    route = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[cp])
+    tree = grow(create_route_tree(route, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree.tick()
+    fleet.arrive()
+    fleet.doors["d1"] = DoorMode.OPEN  # the building says open ...
+    fleet.lidar = "closed"  # ... the scans do not
+    for _ in range(5):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"
+    fleet.lidar = "unknown"  # unknown is not open either
+    tree.tick()
+    fleet.lidar = "open"
+    tree.tick()
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"  # two scans agree: not yet
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.door0"  # the third: go
