@@ -206,12 +206,13 @@ def distances_from(blocked: np.ndarray, source: tuple[int, int]) -> np.ndarray:
         mark,
         search,
         _NO_LANDMARKS,
-        _NO_LANDMARKS[:, 0],
+        _NO_GOAL,
     )
     return np.where(mark >= search, g, np.inf).reshape(blocked.shape)
 
 
 _NO_LANDMARKS = np.zeros((0, 1))
+_NO_GOAL = np.zeros(0)  # C-contiguous, like a real goal row: one compiled signature
 
 
 class Landmarks:
@@ -278,7 +279,7 @@ def astar(
             raise ValueError(f"cell_cost shape {cost.shape} differs from grid {blocked.shape}")
     if blocked.size >= 2**31:
         raise ValueError(f"grid of {blocked.size} cells is too large (max 2**31 - 1)")
-    lm_dist, lm_goal = _NO_LANDMARKS, _NO_LANDMARKS[:, 0]
+    lm_dist, lm_goal = _NO_LANDMARKS, _NO_GOAL
     if landmarks is not None:
         if landmarks.shape != blocked.shape:
             raise ValueError(f"landmarks built for {landmarks.shape}, grid is {blocked.shape}")
