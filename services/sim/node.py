@@ -73,15 +73,22 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _wait_for_fleet(svc: Service, barrier: Barrier, wake: threading.Condition) -> None:
-    """Hold the clock at 0 until the services in ``sim.start_after`` are up (bounded)."""
+    """Hold the clock at 0 until the services in ``sim.start_after`` are up (bounded).
+
+    Lockstep participants count only once the barrier itself has seen their liveliness
+    token: starting on a liveliness query's answer alone could run the first ticks
+    without waiting for a participant whose token the barrier has not yet received.
+    """
     wanted = set(svc.cfg.sim.start_after)
+    participants = wanted & set(barrier.stage_of)
+    others = wanted - participants
     deadline = time.monotonic() + svc.cfg.sim.start_wait_s
-    alive = svc.bus.alive(svc.keys.key("alive"))
-    present = {k.rsplit("/", 1)[-1] for k in alive}
-    with wake:
-        while not svc.stop_event.is_set():
-            present |= barrier.alive
-            missing = wanted - present
+    present: set[str] = set()
+    while not svc.stop_event.is_set():
+        if others - present:
+            present |= {k.rsplit("/", 1)[-1] for k in svc.bus.alive(svc.keys.key("alive"), 0.2)}
+        with wake:
+            missing = (participants - barrier.alive) | (others - present)
             if not missing:
                 svc.log.info("fleet present; starting the clock")
                 return
@@ -93,7 +100,6 @@ def _wait_for_fleet(svc: Service, barrier: Barrier, wake: threading.Condition) -
                 )
                 return
             wake.wait(0.2)
-            present |= {k.rsplit("/", 1)[-1] for k in svc.bus.alive(svc.keys.key("alive"), 0.2)}
 
 
 def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condition) -> None:
