@@ -1,10 +1,12 @@
-"""The controller's core: follow a path with a pure-pursuit law and the path's speed profile.
+"""Pure pursuit: follow a path with a pure-pursuit law and the path's speed profile.
 
-A deliberately simple tracker (the MPC replaces it later without touching the wiring):
-it projects the pose onto the path (progress never goes backwards), steers towards a
-point ``lookahead_m`` further on, turns on the spot when that point is far off the
-heading, takes the speed from the path's ``v_ref`` and stops within
-``goal_tolerance_m`` of the last waypoint. A stale pose gives a zero command.
+The simple, exact tracker beside the MPC (services/controller/tracking.py picks): it
+drives reverse paths, precise passes through doors and into lift cars, and the last
+part of every path. It projects the pose onto the path (progress never goes
+backwards), faces the path before setting off, steers towards a point ``lookahead_m``
+further on, turns on the spot when that point is far off the heading, takes the speed
+from the path's ``v_ref`` and stops within ``goal_tolerance_m`` of the last waypoint.
+A stale pose gives a zero command.
 """
 
 from __future__ import annotations
