@@ -88,7 +88,7 @@ def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
 
         hz = wheelnav("topic", "hz", keys.odom, "--duration", "3", "--connect", endpoint)
         rates = [float(ln.split()[1]) for ln in hz.stdout.splitlines() if " Hz " in ln]
-        assert rates and 35 < rates[-1] < 65, hz.stdout  # 50 Hz odometry at real time
+        assert rates and 25 < rates[-1] < 65, hz.stdout  # 50 Hz odometry (lower if loaded)
 
         # garbage on the keys services listen to: logged and counted, nobody dies
         from shared.config import TransportConfig
