@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
 
+from services.controller import mpc as mpc_module
 from services.controller.mpc import MPCConfig, SamplingMPC, footprint_points
 from services.controller.mpc_bench import (
     RES,
@@ -19,18 +20,7 @@ from services.controller.mpc_bench import (
 )
 from shared.config import RobotConfig
 
-WEIGHTS = (
-    "w_track",
-    "w_progress",
-    "w_heading",
-    "w_speed_ref",
-    "w_speed_window",
-    "w_turn",
-    "w_smooth",
-    "w_wall",
-    "w_obstacle",
-    "w_goal",
-)
+WEIGHTS = mpc_module._WEIGHTS  # every cost weight the kernel reads, from the one list
 BACKENDS = ("numba", "numpy")
 ONE = {"threads": 1}  # one kernel thread: steady test times on a busy machine, same results
 
