@@ -198,6 +198,9 @@ class ControllerConfig:
     pose_timeout_s: float = field(default=0.5, metadata=check(_positive))
     scan_timeout_s: float = field(default=0.5, metadata=check(_positive))
     stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
+    dock_tolerance_m: float = field(default=0.05, metadata=check(_positive))
+    dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
+    dock_speed: float = field(default=0.15, metadata=check(_positive))
 
 
 @dataclass

@@ -107,7 +107,7 @@ class PointCloud(Msg):
     points: np.ndarray = array("float32", (None, 3))
 
 
-@message("path", version=4)
+@message("path", version=5)
 @dataclass
 class Path(Msg):
     """Waypoints (x, y) on one floor and the reference speed at each (m/s, 0 at the goal).
@@ -115,6 +115,9 @@ class Path(Msg):
     ``reverse``: drive it backwards (out of a lift car, where the chair cannot turn).
     ``precise``: a short, straight pass through a door or into a car: track it exactly.
     ``zones``: a tag per waypoint (room, corridor, door, goal), empty if unknown.
+    ``dock_heading``: set, the path is a docking manoeuvre to its last waypoint, ending
+    facing this heading (position correction before a door, idle motion); ``v_ref[0]``
+    caps its speed. See services/controller/docking.py.
     """
 
     stamp: float
@@ -125,6 +128,7 @@ class Path(Msg):
     reverse: bool = False
     precise: bool = False
     zones: list[str] = field(default_factory=list)
+    dock_heading: float | None = None
 
 
 # --------------------------------------------------------------------------------------

@@ -237,7 +237,32 @@ def two_floors(folder: Path) -> None:
     write_site(folder, "two_floors", plans, shafts, (-1.0, -1.0, 41.0, 21.0))
 
 
-SITES = {"two_rooms": sitegen_two_rooms, "seed_floor": seed_floor, "two_floors": two_floors}
+# --------------------------------------------------------------------------------------
+# two_ways: two rooms joined by a door and, the long way round, by a corridor north of both
+# --------------------------------------------------------------------------------------
+
+
+def two_ways(folder: Path) -> None:
+    """Rooms room_a and room_b share door_ab; each also opens into a 2.5 m corridor north."""
+    plan = Plan("1", 0.0)
+    plan.room(0.0, 0.0, 8.0, 6.0)  # room_a
+    plan.room(8.0, 0.0, 16.0, 6.0)  # room_b
+    plan.room(0.0, 6.0, 16.0, 8.5)  # the corridor
+    plan.door("door_ab", (8.0, 2.5), (8.0, 3.5), "manual")
+    plan.door("door_a_hall", (3.5, 6.0), (4.5, 6.0), "manual")
+    plan.door("door_b_hall", (11.5, 6.0), (12.5, 6.0), "manual")
+    plan.place("room_a", 2.0, 3.0, 0.0)
+    plan.place("room_b", 14.0, 3.0, math.pi)
+    plan.place("hall", 8.0, 7.25, 0.0)
+    write_site(folder, "two_ways", [plan], [], (-1.0, -1.0, 17.0, 9.5))
+
+
+SITES = {
+    "two_rooms": sitegen_two_rooms,
+    "seed_floor": seed_floor,
+    "two_floors": two_floors,
+    "two_ways": two_ways,
+}
 
 
 def main() -> None:

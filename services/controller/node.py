@@ -59,7 +59,9 @@ def main(argv: list[str] | None = None) -> None:
             latest["scan"] = msg
 
         def on_path(msg: Path) -> None:
-            tracker.set_path(msg.path_id, msg.waypoints, msg.v_ref, msg.reverse, msg.precise)
+            tracker.set_path(
+                msg.path_id, msg.waypoints, msg.v_ref, msg.reverse, msg.precise, msg.dock_heading
+            )
             svc.log.info(
                 "path %s: %d waypoints%s",
                 msg.path_id or "(stop)",

@@ -6,15 +6,20 @@ pursuit takes reverse paths (backing out of a lift car), precise passes (through
 door, into a car: the MPC's safety margins leave no room in a 1.0 m door) and the last
 ``controller.final_approach_m`` of a path (the MPC's costs flatten out where v_ref
 falls to 0; pure pursuit docks on the approach pose). ``pursuit`` uses pure pursuit
-throughout. Pure: the node hands in poses, speeds and points.
+throughout. A path with ``dock_heading`` set is a docking manoeuvre
+(:mod:`services.controller.docking`) whatever the mode. Pure: the node hands in poses,
+speeds and points.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from services.controller.core import Command, PathFollower
+from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import MPCConfig, SamplingMPC
 from shared.config import ControllerConfig, RobotConfig
 from shared.site import Site
@@ -26,6 +31,14 @@ class Tracker:
     def __init__(self, cfg: ControllerConfig, robot: RobotConfig, site: Site | None) -> None:
         self.cfg = cfg
         self.pursuit = PathFollower(cfg, robot)
+        self.docker = Docker(
+            DockLimits(
+                position_tolerance_m=cfg.dock_tolerance_m,
+                heading_tolerance_rad=math.radians(cfg.dock_heading_tolerance_deg),
+                max_speed=min(cfg.dock_speed, robot.max_speed),
+                max_turn=min(0.3, robot.max_turn_rate),
+            )
+        )
         self.mpc: SamplingMPC | None = None
         self.fields: dict[str, tuple[np.ndarray, float, tuple[float, float]]] = {}
         self.floor = ""
@@ -79,8 +92,16 @@ class Tracker:
         v_ref: np.ndarray,
         reverse: bool = False,
         precise: bool = False,
+        dock_heading: float | None = None,
     ) -> None:
-        """Follow a path; reverse and precise (door, lift car) passes use pure pursuit."""
+        """Follow a path; reverse and precise (door, lift car) passes use pure pursuit,
+        a path with ``dock_heading`` is a docking manoeuvre to its last waypoint."""
+        self.docker.clear()
+        if dock_heading is not None and len(waypoints) > 0:
+            cap = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else None
+            gx, gy = float(waypoints[-1][0]), float(waypoints[-1][1])
+            self.docker.set_goal(gx, gy, dock_heading, cap)
+            waypoints, v_ref = np.zeros((0, 2)), np.zeros(0)
         self.pursuit.set_path(path_id, waypoints, v_ref, reverse)
         self.use_mpc = self.mpc is not None and not reverse and not precise and len(waypoints) > 0
         if self.mpc is not None:
@@ -102,6 +123,8 @@ class Tracker:
         period_s: float,
     ) -> Command:
         """The command for this cycle (zero when the pose is stale or everything collides)."""
+        if self.docker.active:
+            return self.docker.step(x, y, theta, fresh)
         if not self.use_mpc:
             return self.pursuit.step(x, y, theta, fresh)
         if not fresh:

@@ -12,7 +12,7 @@ from shared.site import SiteError, load_site
 from tests.conftest import ROOT
 
 
-@pytest.mark.parametrize("name", ["two_floors", "seed_floor"])
+@pytest.mark.parametrize("name", ["two_floors", "seed_floor", "two_ways"])
 def test_doors_sit_on_gaps_and_lifts_serve_their_floors(name: str) -> None:
     site = load_site(ROOT / "sites" / name)
     for door in site.doors:

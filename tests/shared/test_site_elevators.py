@@ -16,7 +16,7 @@ from shared.site import Elevator, GridMap, Site, SiteError, load_site
 from tests.conftest import ROOT
 
 INFLATION_M = 0.375  # chair half width 0.325 + margin
-SITES = ("seed_floor", "two_floors")
+SITES = ("seed_floor", "two_floors", "two_ways")
 
 
 @cache

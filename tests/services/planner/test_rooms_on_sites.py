@@ -16,6 +16,7 @@ FLOORS = [
     ("two_floors", "2"),
     ("seed_floor", "4"),
     ("seed_floor", "5"),
+    ("two_ways", "1"),
 ]
 
 

@@ -1,0 +1,83 @@
+"""Docking (Phase 0 position correction) in closed loop with a chair model with motor lag."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from services.controller.docking import Docker, DockLimits
+
+RATE = 25.0
+LAG_S = 0.25  # first-order motor lag, as the simulator's chair
+
+
+def run(docker: Docker, x: float, y: float, th: float, limit_s: float = 20.0):
+    """Drive the model until the docker reports arrival; (x, y, th, seconds, max |v|)."""
+    v = w = 0.0
+    dt = 1.0 / RATE
+    top = 0.0
+    t = 0.0
+    while t < limit_s:
+        cmd = docker.step(x, y, th)
+        if cmd.state == "arrived":
+            return x, y, th, t, top
+        v += (cmd.v - v) * dt / LAG_S
+        w += (cmd.w - w) * dt / LAG_S
+        top = max(top, abs(v))
+        x += v * math.cos(th) * dt
+        y += v * math.sin(th) * dt
+        th += w * dt
+        t += dt
+    return x, y, th, t, top
+
+
+# the seed's Phase 0 tests: target 2.5 m in front of the door (goal at the origin facing +x,
+# door at x = 2.5), chair 2.0 m / 3.0 m from the door, 15 deg off, 2.2 m and 10 deg off
+SEED_CASES = {
+    "too_close_2.0m": (0.5, 0.0, 0.0),
+    "too_far_3.0m": (-0.5, 0.0, 0.0),
+    "angle_15deg": (0.0, 0.0, math.radians(15)),
+    "2.2m_10deg": (0.3, 0.0, math.radians(10)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SEED_CASES))
+def test_seed_cases_end_within_tolerance_in_under_10_s(case: str) -> None:
+    docker = Docker(DockLimits())
+    docker.set_goal(0.0, 0.0, 0.0)
+    x, y, th, t, _ = run(docker, *SEED_CASES[case])
+    assert math.hypot(x, y) <= 0.15
+    assert abs(math.degrees(th)) <= 5.0
+    assert t < 10.0
+
+
+def test_a_sideways_error_is_driven_out_too() -> None:
+    docker = Docker(DockLimits())
+    docker.set_goal(0.0, 0.0, 0.0)
+    x, y, th, t, _ = run(docker, -0.3, 0.4, 0.0)  # two turns of 53 deg and 0.5 m
+    assert math.hypot(x, y) <= 0.05 + 0.01 and abs(math.degrees(th)) <= 1.0 + 0.5
+    assert t < 15.0
+
+
+def test_backs_up_to_a_target_behind_instead_of_turning_round() -> None:
+    docker = Docker(DockLimits())
+    docker.set_goal(0.0, 0.0, 0.0)
+    cmd = docker.step(0.5, 0.0, 0.0)
+    assert cmd.v < 0.0 and abs(cmd.w) < 1e-9
+
+
+def test_speed_cap_holds_for_idle_motion() -> None:
+    docker = Docker(DockLimits())
+    docker.set_goal(-0.12, 0.0, 0.0, max_speed=0.05)
+    x, y, th, t, top = run(docker, 0.0, 0.0, 0.0)
+    assert top <= 0.05 + 1e-9
+    assert abs(x + 0.12) <= 0.05 and t < 10.0
+
+
+def test_stale_pose_and_no_goal_give_zero() -> None:
+    docker = Docker()
+    assert docker.step(0.0, 0.0, 0.0).state == "idle"
+    docker.set_goal(1.0, 0.0, 0.0)
+    cmd = docker.step(0.0, 0.0, 0.0, pose_fresh=False)
+    assert (cmd.v, cmd.w, cmd.state) == (0.0, 0.0, "stale")
