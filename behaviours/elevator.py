@@ -42,14 +42,43 @@ class RequestLift(_LiftBehaviour):
 class WaitForLift(_LiftBehaviour):
     """RUNNING until the car stands at ``floor`` with its doors open for our session.
 
-    FAILURE at once when the building reports the lift out of service (OFFLINE), naming
-    it in ``/mission/blocked`` so the navigator can try another lift. A lift held by
-    another session keeps it RUNNING (busy) until the timeout above it fires.
+    With ``door_xy`` (the car door's middle) the LiDAR must also see the doorway open in
+    ``scans`` consecutive new scans: ahead when the car arrives, behind the chair when
+    it stops at the destination (the VLP-16 sees all round). FAILURE at once when the
+    building reports the lift out of service (OFFLINE), naming it in ``/mission/blocked``
+    so the navigator can try another lift. A lift held by another session keeps it
+    RUNNING (busy) until the timeout above it fires.
     """
 
-    def __init__(self, lift_id: str, floor: str) -> None:
+    def __init__(
+        self,
+        lift_id: str,
+        floor: str,
+        door_xy: tuple[float, float] | None = None,
+        scans: int = 3,
+        phase: str = "call",
+    ) -> None:
         super().__init__(f"WaitForLift {lift_id} at {floor}", lift_id)
         self.floor = floor
+        self.phase = phase
+        self.door_xy = door_xy
+        self.scans = scans
+        self._agree = 0
+        self._last_scan = -1.0
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self._agree, self._last_scan = 0, -1.0
+
+    def _lidar_open(self) -> bool:
+        """The car door seen open (ahead or behind the chair) in ``scans`` new scans."""
+        if self.door_xy is None:
+            return True
+        stamp, seen = self.fleet.lidar_door_state(*self.door_xy)
+        if stamp > self._last_scan:
+            self._last_scan = stamp
+            self._agree = self._agree + 1 if seen == "open" else 0
+        return self._agree >= self.scans
 
     def update(self) -> Status:
         state = self.fleet.lift_state(self.lift_id)
@@ -70,10 +99,13 @@ class WaitForLift(_LiftBehaviour):
             and state.door_state == LiftDoor.OPEN
             and state.motion_state == LiftMotion.STOPPED
         )
-        self.feedback_message = (
-            "doors open" if ready else (f"car at {state.current_floor}, doors {state.door_state}")
-        )
-        return Status.SUCCESS if ready else Status.RUNNING
+        seen = self._lidar_open() if ready else False
+        if ready and seen:
+            self.feedback_message = "doors open (lift state and LiDAR)"
+            return Status.SUCCESS
+        lidar = f", LiDAR open in {self._agree}/{self.scans} scans" if self.door_xy else ""
+        self.feedback_message = f"car at {state.current_floor}, doors {state.door_state}{lidar}"
+        return Status.RUNNING
 
 
 class SetFloor(_LiftBehaviour):

@@ -12,7 +12,15 @@ from typing import Protocol
 import py_trees
 from py_trees.common import Access, Status
 
-from shared.messages import FollowStatus, LiftState, Path, Pose2D, PoseEstimate, RouteReply
+from shared.messages import (
+    FollowStatus,
+    LiftState,
+    Odometry,
+    Path,
+    Pose2D,
+    PoseEstimate,
+    RouteReply,
+)
 
 
 class Fleet(Protocol):
@@ -38,6 +46,9 @@ class Fleet(Protocol):
     def pose(self) -> PoseEstimate | None:
         """The latest pose estimate."""
 
+    def odometry(self) -> Odometry | None:
+        """The latest wheel odometry (drifts, but never jumps)."""
+
     def door_mode(self, door_id: str) -> int | None:
         """The building's last reported DoorMode of ``door_id`` (None if never reported)."""
 
@@ -46,6 +57,12 @@ class Fleet(Protocol):
 
     def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
         """(stamp of the latest scan, "open" / "closed" / "unknown") for the door at (x, y)."""
+
+    def lane_blocked(
+        self, door_xy: tuple[float, float], direction: float, lead_m: float
+    ) -> tuple[float, bool]:
+        """(stamp of the latest scan, True if something stands in the chair's lane between
+        its leading edge ``lead_m`` ahead and the door plane, moving along ``direction``)."""
 
     def lift_state(self, lift_id: str) -> LiftState | None:
         """The building's last LiftState of ``lift_id``."""

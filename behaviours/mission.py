@@ -3,33 +3,47 @@
 A mission runs two trees, one after the other (the second is built from the route the
 first one got, as the seed's phase manager built its action list)::
 
-    Plan (Selector, memory)                 Route (Selector, memory)
-    ├── Timeout(ComputeRoute)               ├── Drive (Sequence, memory)
-    └── SafeStop                            │   ├── Timeout(FollowPath leg 0)
-        ├── StopChair                       │   ├── Door <id> (Sequence, memory)
-        └── MissionFailed                   │   │   ├── RequestDoor OPEN    (powered doors)
-                                            │   │   ├── Timeout(WaitForDoorOpen)
-                                            │   │   ├── Timeout(FollowPath through)
-                                            │   │   └── RequestDoor CLOSED  (powered doors)
-                                            │   ├── Timeout(FollowPath leg 1)
-                                            │   └── ...
-                                            └── SafeStop
+    Plan (Selector, memory)            Route (Selector, memory)
+    ├── PlanTimeout(ComputeRoute)      ├── Drive (Sequence, memory)
+    └── SafeStop                       │   ├── Leg 0: Timeout(FollowPath)
+        ├── StopChair                  │   ├── Door <id> (Sequence, memory)
+        └── MissionFailed              │   │   ├── Phase 0: Timeout(DockAt approach)   correct
+                                       │   │   ├── Phase 1: Timeout(DockAt face exit)  turn
+                                       │   │   ├── RequestDoor OPEN              (powered)
+                                       │   │   ├── Phase 2: Timeout(WaitForDoorOpen    verify
+                                       │   │   │            [|| IdleMotion: automatic])
+                                       │   │   ├── Phase 3: Timeout(DriveThrough)      pass
+                                       │   │   └── RequestDoor CLOSED            (powered)
+                                       │   ├── Leg 1 ...
+                                       │   └── Elevator <id> (Sequence, memory)
+                                       │       ├── Call car, Phase 0, Arrive (lift + LiDAR)
+                                       │       ├── Enter, Call to floor, Ride (lift + LiDAR
+                                       │       │   behind), SetFloor, Exit (reverse), Release
+                                       └── SafeStop
+
+Phase 4 (completion) is the door's Sequence succeeding. A door or lift whose wait times
+out is named in ``/mission/blocked``: the navigator then plans around it.
 
 Blackboard (namespace ``/mission``): ``goal`` (Pose2D or None), ``place`` (str),
-``route`` (RouteReply), ``phase`` (str), ``action`` (str), ``failure`` (str).
+``route`` (RouteReply), ``phase`` (str), ``failure`` (str), ``blocked`` (str),
+``correction`` (position m, heading deg, seconds of the last Phase 0 / 1).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
+from behaviours.door import IdleMotion, RequestDoor, WaitForDoorOpen
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import NS, FleetBehaviour
+from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
 from behaviours.timeouts import Timeout
+from shared.config import NavigatorConfig
 from shared.messages import DoorMode, Path, RouteReply
 
 
@@ -83,150 +97,11 @@ class ComputeRoute(FleetBehaviour):
         self._token = None
 
 
-class FollowPath(FleetBehaviour):
-    """Send ``path`` to the controller and wait until it reports arrival.
-
-    RUNNING while the controller follows; SUCCESS on ``arrived`` for this path. A controller
-    that reports ``idle`` without this path (it was restarted) gets the path again. Never
-    FAILURE itself: the timeout above it bounds the wait. ``terminate`` on pre-emption
-    stops the chair.
-    """
-
-    phase = "follow"
-
-    def __init__(
-        self, path: Path, name: str = "", phase: str = "follow", door_id: str = ""
-    ) -> None:
-        super().__init__(name or f"Follow {path.path_id}")
-        self.path = path
-        self.phase = phase
-        self.path_id = path.path_id
-        self.door_id = door_id  # passing this door: pause while it is not reported OPEN
-        self.sent_at = 0.0
-        self.paused = False
-
-    def initialise(self) -> None:
-        self.bb.phase = self.phase
-        self.sent_at = self.fleet.now()
-        self.paused = False
-        self.fleet.send_path(self.path)
-        self.feedback_message = f"following {self.path_id}"
-
-    def update(self) -> Status:
-        if self.door_id:
-            open_now = self.fleet.door_mode(self.door_id) == DoorMode.OPEN
-            if not open_now and not self.paused:  # the door started to close: stop in it
-                self.fleet.stop()
-                self.paused = True
-            if self.paused:
-                if not open_now:
-                    self.feedback_message = f"door {self.door_id} not open: holding"
-                    return Status.RUNNING
-                self.paused = False
-                self.sent_at = self.fleet.now()
-                self.fleet.send_path(self.path)
-                return Status.RUNNING
-        status = self.fleet.follow_status()
-        restarted = (
-            status is not None
-            and status.state in ("idle", "no_pose")
-            and status.path_id != self.path_id
-            and status.stamp > self.sent_at
-        )
-        if restarted:  # a restarted controller has lost the path: send it again
-            self.sent_at = self.fleet.now()
-            self.fleet.send_path(self.path)
-            self.feedback_message = f"controller idle: resent {self.path_id}"
-            return Status.RUNNING
-        if status is None or status.path_id != self.path_id:
-            return Status.RUNNING
-        self.feedback_message = (
-            f"{status.state}: {100 * status.progress:.0f} %, {status.distance_to_goal:.2f} m to go"
-        )
-        return Status.SUCCESS if status.state == "arrived" else Status.RUNNING
-
-    def terminate(self, new_status: Status) -> None:
-        if new_status == Status.INVALID and self.fleet is not None:
-            self.fleet.stop()
-
-
-class StopChair(FleetBehaviour):
-    """Command the controller to drop its path (zero speed). Always SUCCESS at once."""
-
-    phase = "stop"
-
-    def __init__(self, name: str = "StopChair") -> None:
-        super().__init__(name)
-
-    def update(self) -> Status:
-        self.bb.phase = self.phase
-        self.fleet.stop()
-        self.feedback_message = "chair stopped"
-        return Status.SUCCESS
-
-
 class MissionFailed(py_trees.behaviour.Behaviour):
     """Always FAILURE: the safe stop ran because navigation failed."""
 
     def update(self) -> Status:
         return Status.FAILURE
-
-
-class RequestDoor(FleetBehaviour):
-    """Send a DoorRequest (OPEN or CLOSED) for ``door_id``. Always SUCCESS at once."""
-
-    def __init__(self, door_id: str, mode: int) -> None:
-        word = "OPEN" if mode == DoorMode.OPEN else "CLOSED"
-        super().__init__(f"Request {door_id} {word}")
-        self.door_id, self.mode = door_id, mode
-
-    def update(self) -> Status:
-        self.fleet.request_door(self.door_id, self.mode)
-        self.feedback_message = "requested"
-        return Status.SUCCESS
-
-
-class WaitForDoorOpen(FleetBehaviour):
-    """RUNNING until the door is open by both accounts, then SUCCESS.
-
-    The building must report ``door_id`` OPEN and, when ``centre`` is given, the LiDAR
-    check (the seed's ROI method) must have said "open" in ``scans`` consecutive new
-    scans. CLOSED, MOVING, OFFLINE, UNKNOWN, no report, and a LiDAR "unknown" are all "not
-    open" (the seed took unknown for open). The timeout above it bounds the wait.
-    """
-
-    phase = "door"
-
-    def __init__(
-        self, door_id: str, centre: tuple[float, float] | None = None, scans: int = 3
-    ) -> None:
-        super().__init__(f"WaitForDoorOpen {door_id}")
-        self.door_id = door_id
-        self.centre = centre
-        self.scans = scans
-        self._agree = 0
-        self._last_scan = -1.0
-
-    def initialise(self) -> None:
-        self.bb.phase = self.phase
-        self._agree, self._last_scan = 0, -1.0
-        self.fleet.stop()
-
-    def update(self) -> Status:
-        mode = self.fleet.door_mode(self.door_id)
-        if self.centre is not None:
-            stamp, seen = self.fleet.lidar_door_state(*self.centre)
-            if stamp > self._last_scan:
-                self._last_scan = stamp
-                self._agree = self._agree + 1 if seen == "open" else 0
-        lidar_ok = self.centre is None or self._agree >= self.scans
-        if mode == DoorMode.OPEN and lidar_ok:
-            self.feedback_message = "open"
-            return Status.SUCCESS
-        names = {0: "closed", 1: "moving", 3: "offline", 4: "unknown"}
-        seen = f", LiDAR open in {self._agree}/{self.scans} scans" if self.centre else ""
-        self.feedback_message = f"door {names.get(mode, 'not reported')}{seen}, waiting"
-        return Status.RUNNING
 
 
 def _timeouts() -> Callable[[str], None]:
@@ -253,47 +128,101 @@ def create_plan_tree(
     return py_trees.composites.Selector("Plan", memory=True, children=[plan, _safe_stop()])
 
 
-def straight_path(
-    path_id: str,
-    floor: str,
-    a: tuple[float, float],
-    b: tuple[float, float],
-    speed: float,
-    spacing: float = 0.25,
-) -> Path:
-    """A straight path from ``a`` to ``b`` at ``speed``, stopping at ``b``."""
-    n = max(2, int(np.ceil(np.hypot(b[0] - a[0], b[1] - a[1]) / spacing)) + 1)
-    pts = np.linspace(a, b, n)
-    v = np.full(n, speed)
-    v[-1] = 0.0
-    return Path(0.0, path_id, floor, pts, v, precise=True)
+@dataclass(frozen=True)
+class EntryParams:
+    """What the door and elevator subtrees need to know: the navigator's config, the door
+    speed and the chair's footprint (front and rear of the pose point, half width)."""
+
+    nav: NavigatorConfig
+    door_speed: float
+    front_m: float
+    rear_m: float
+    half_width_m: float
+
+    @property
+    def centre_offset_m(self) -> float:
+        """How far the footprint's centre lies ahead of the pose point (rear axle)."""
+        return (self.front_m - self.rear_m) / 2
 
 
-def _door_steps(
-    cp, i: int, route_id: str, clock, record, door_timeout_s: float, door_speed: float
-) -> py_trees.behaviour.Behaviour:
-    through = straight_path(
-        f"{route_id}.door{i}",
+def _pass_timeout(distance_m: float, speed: float) -> float:
+    return max(10.0, 4 * distance_m / speed)
+
+
+def _correct(cp, name: str, p: EntryParams, clock, record) -> py_trees.behaviour.Behaviour:
+    """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances."""
+    a, nav = cp.approach, p.nav
+    dock = DockAt(
+        f"Correct {cp.id}",
+        "correct",
         cp.floor,
-        (cp.approach.x, cp.approach.y),
-        (cp.exit.x, cp.exit.y),
-        door_speed,
+        (a.x, a.y),
+        a.theta,
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        nav.heading_tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
     )
-    steps: list[py_trees.behaviour.Behaviour] = []
+    return Timeout(name, dock, nav.correction_timeout_s, clock, record)
+
+
+def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.behaviour.Behaviour:
+    """The seed's door entry: correct, turn to the exit, verify open, pass, done."""
+    nav = p.nav
+    a, e = cp.approach, cp.exit
+    centre = (cp.centre.x, cp.centre.y) if cp.centre else None
+    turn = DockAt(
+        f"Turn {cp.id}",
+        "turn",
+        cp.floor,
+        (a.x, a.y),
+        None,
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        nav.turn_tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
+        face=(e.x, e.y),
+    )
+    steps: list[py_trees.behaviour.Behaviour] = [
+        _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
+        Timeout(f"Phase 1 {cp.id}", turn, nav.correction_timeout_s, clock, record),
+    ]
     if cp.door_type == "powered":
         steps.append(RequestDoor(cp.id, DoorMode.OPEN))
+    wait: py_trees.behaviour.Behaviour
+    if cp.door_type == "automatic":  # rock gently so the door's motion sensor fires
+        wait = py_trees.composites.Parallel(
+            f"Open {cp.id}",
+            policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+            children=[
+                WaitForDoorOpen(cp.id, centre, nav.door_scans, stop_on_start=False),
+                IdleMotion(
+                    cp.id, cp.floor, (a.x, a.y, a.theta), nav.idle_speed, nav.idle_amplitude_m
+                ),
+            ],
+        )
+    else:
+        wait = WaitForDoorOpen(cp.id, centre, nav.door_scans)
+    through = DriveThrough(
+        f"{route_id}.door.{cp.id}",
+        "pass",
+        cp.floor,
+        (a.x, a.y),
+        (e.x, e.y),
+        p.door_speed,
+        centre,
+        p.front_m,
+        door_id=cp.id,
+        overrun_m=nav.pass_overrun_m,
+    )
     steps += [
+        Timeout(f"Phase 2 {cp.id}", wait, nav.door_timeout_s, clock, _blocking(record, cp.id)),
         Timeout(
-            f"Door {cp.id} wait",
-            WaitForDoorOpen(cp.id, (cp.centre.x, cp.centre.y) if cp.centre else None),
-            door_timeout_s,
-            clock,
-            _blocking(record, cp.id),
-        ),
-        Timeout(
-            f"Door {cp.id} pass",
-            FollowPath(through, f"Pass {cp.id}", "door", door_id=cp.id),
-            max(10.0, 4 * cp.pass_distance_m / door_speed),
+            f"Phase 3 {cp.id}",
+            through,
+            _pass_timeout(cp.pass_distance_m, p.door_speed),
             clock,
             record,
         ),
@@ -304,52 +233,62 @@ def _door_steps(
 
 
 def _elevator_steps(
-    cp,
-    i: int,
-    route_id: str,
-    clock,
-    record,
-    lift_timeout_s: float,
-    door_speed: float,
-    centre_offset_m: float,
+    cp, route_id: str, p: EntryParams, clock, record
 ) -> py_trees.behaviour.Behaviour:
-    """Call the car, drive in, ride, switch floor, back out, release (the seed's phases)."""
+    """Call the car, correct, verify its door open, drive in, ride, switch floor, back out
+    (LiDAR behind and lift state agreeing), release: the seed's phases on the lift protocol."""
+    nav = p.nav
     heading = np.array([np.cos(cp.approach.theta), np.sin(cp.approach.theta)])
     start = np.array([cp.approach.x, cp.approach.y])
-    inside = start + heading * (cp.pass_distance_m - centre_offset_m)
-    out = np.array([cp.exit.x, cp.exit.y])
-    drive_in = straight_path(
-        f"{route_id}.lift{i}.in", cp.floor, tuple(start), tuple(inside), door_speed
+    inside = start + heading * (cp.pass_distance_m - p.centre_offset_m)
+    out = (cp.exit.x, cp.exit.y)
+    door = (cp.centre.x, cp.centre.y) if cp.centre else None
+    timeout = _pass_timeout(cp.pass_distance_m, p.door_speed)
+    drive_in = DriveThrough(
+        f"{route_id}.lift.{cp.id}.in",
+        "enter",
+        cp.floor,
+        tuple(start),
+        tuple(inside),
+        p.door_speed,
+        door,
+        p.front_m,
+        overrun_m=0.0,
     )
-    back_out = straight_path(
-        f"{route_id}.lift{i}.out", cp.to_floor, tuple(inside), tuple(out), door_speed
+    back_out = DriveThrough(
+        f"{route_id}.lift.{cp.id}.out",
+        "exit",
+        cp.to_floor,
+        tuple(inside),
+        out,
+        p.door_speed,
+        door,
+        p.rear_m,
+        reverse=True,
+        overrun_m=nav.pass_overrun_m,
     )
-    back_out.reverse = True
     blocked = _blocking(record, cp.id)
     steps = [
         RequestLift(cp.id, cp.floor),
+        _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
         Timeout(
-            f"Lift {cp.id} arrive", WaitForLift(cp.id, cp.floor), lift_timeout_s, clock, blocked
-        ),
-        Timeout(
-            f"Lift {cp.id} enter",
-            FollowPath(drive_in, f"Enter {cp.id}", "elevator"),
-            max(10.0, 4 * cp.pass_distance_m / door_speed),
+            f"Arrive {cp.id}",
+            WaitForLift(cp.id, cp.floor, door, nav.door_scans),
+            nav.lift_timeout_s,
             clock,
-            record,
+            blocked,
         ),
+        Timeout(f"Enter {cp.id}", drive_in, timeout, clock, record),
         RequestLift(cp.id, cp.to_floor),
         Timeout(
-            f"Lift {cp.id} ride", WaitForLift(cp.id, cp.to_floor), lift_timeout_s, clock, record
-        ),
-        SetFloor(cp.id, cp.to_floor),
-        Timeout(
-            f"Lift {cp.id} exit",
-            FollowPath(back_out, f"Exit {cp.id}", "elevator"),
-            max(10.0, 4 * cp.pass_distance_m / door_speed),
+            f"Ride {cp.id}",
+            WaitForLift(cp.id, cp.to_floor, door, nav.door_scans, phase="ride"),
+            nav.lift_timeout_s,
             clock,
             record,
         ),
+        SetFloor(cp.id, cp.to_floor),
+        Timeout(f"Exit {cp.id}", back_out, timeout, clock, record),
         ReleaseLift(cp.id),
     ]
     return py_trees.composites.Sequence(f"Elevator {cp.id}", memory=True, children=steps)
@@ -367,35 +306,34 @@ def _blocking(record: Callable[[str], None], checkpoint_id: str) -> Callable[[st
     return on_timeout
 
 
+def _leg_length(leg: Path) -> float:
+    pts = np.asarray(leg.waypoints, float)
+    return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()) if len(pts) > 1 else 0.0
+
+
 def create_route_tree(
-    route: RouteReply,
-    clock: Callable[[], float],
-    follow_timeout_s: float,
-    door_timeout_s: float,
-    door_speed: float,
-    lift_timeout_s: float = 120.0,
-    centre_offset_m: float = 0.205,
+    route: RouteReply, clock: Callable[[], float], params: EntryParams
 ) -> py_trees.behaviour.Behaviour:
     """The second tree of a mission: drive the route's legs and pass its checkpoints in order.
 
-    ``centre_offset_m`` is how far the footprint's centre lies ahead of the pose reference
-    point (rear axle), so the chair stops with its body centred in a lift car.
+    A leg shorter than ``navigator.correction_reach_m`` that ends at a checkpoint is left
+    to that checkpoint's position correction (the seed's Phase 0 tests start 0.5 m from
+    the approach pose, sometimes past it: the chair backs up rather than turning round).
     """
     record = _timeouts()
+    nav = params.nav
     route_id = route.path.path_id if route.path is not None else "route"
     steps: list[py_trees.behaviour.Behaviour] = []
     for i, leg in enumerate(route.legs):
-        steps.append(Timeout(f"Leg {i} timeout", FollowPath(leg), follow_timeout_s, clock, record))
-        if i >= len(route.checkpoints):
+        cp = route.checkpoints[i] if i < len(route.checkpoints) else None
+        if cp is None or _leg_length(leg) >= nav.correction_reach_m:
+            follow = FollowPath(leg, f"Follow leg {i}")
+            steps.append(Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record))
+        if cp is None:
             continue
-        cp = route.checkpoints[i]
         if cp.kind == "door":
-            steps.append(_door_steps(cp, i, route_id, clock, record, door_timeout_s, door_speed))
+            steps.append(_door_steps(cp, route_id, params, clock, record))
         else:
-            steps.append(
-                _elevator_steps(
-                    cp, i, route_id, clock, record, lift_timeout_s, door_speed, centre_offset_m
-                )
-            )
+            steps.append(_elevator_steps(cp, route_id, params, clock, record))
     drive = py_trees.composites.Sequence("Drive", memory=True, children=steps)
     return py_trees.composites.Selector("Route", memory=True, children=[drive, _safe_stop()])

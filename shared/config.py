@@ -216,6 +216,18 @@ class NavigatorConfig:
     safety_timeout_s: float = field(default=60.0, metadata=check(_positive))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
+    position_tolerance_m: float = field(default=0.15, metadata=check(_positive))
+    heading_tolerance_deg: float = field(default=5.0, metadata=check(_positive))
+    turn_tolerance_deg: float = field(default=2.0, metadata=check(_positive))
+    correction_speed: float = field(default=0.15, metadata=check(_positive))
+    correction_timeout_s: float = field(default=15.0, metadata=check(_positive))
+    correction_attempts: int = field(default=3, metadata=check(_positive))
+    correction_stall_s: float = field(default=4.0, metadata=check(_positive))
+    correction_reach_m: float = field(default=1.0, metadata=check(_non_negative))
+    idle_speed: float = field(default=0.05, metadata=check(_positive))
+    idle_amplitude_m: float = field(default=0.12, metadata=check(_positive))
+    door_scans: int = field(default=3, metadata=check(_positive))
+    pass_overrun_m: float = field(default=0.2, metadata=check(_non_negative))
 
 
 @dataclass

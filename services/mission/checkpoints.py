@@ -1,10 +1,11 @@
 """Per-checkpoint figures for the mission report, measured on the ground truth.
 
-For each door: the position and heading error when the chair sets off through it (the
-end of position correction), how long it waited at the approach pose, and its lateral
-offset from the door's centre when it crossed the door plane. For each elevator: the
-floors, the wait at the car, and the time from entering to leaving. Pure: the runner
-feeds it the route and the true poses.
+For each door: the position and heading error at the end of position correction (the
+navigator's Phase 0, read from its status; without one, the closest approach and the
+heading at set-off), how long it waited at the approach pose, its lateral offset from
+the door's centre when it crossed the door plane, and the time of each phase. For each
+elevator: the floors, the phases (waiting for the car, entering, the ride, leaving).
+Pure: the runner feeds it the route, the navigator's status and the true poses.
 """
 
 from __future__ import annotations
@@ -29,6 +30,10 @@ class _Track:
     crossed_s: float | None = None
     lateral_offset_m: float | None = None
     floor_after: str = ""
+    corrected: bool = False
+    passed_s: float | None = None  # crossed the door plane / out of the car: done when the
+    # navigator's action moves on
+    phases: dict[str, float] = field(default_factory=dict)
     _side: float | None = None
 
 
@@ -38,14 +43,58 @@ class CheckpointLog:
 
     done: list[dict[str, Any]] = field(default_factory=list)
     _queue: list[_Track] = field(default_factory=list)
+    _truth: tuple[float, float, float] | None = None
+    _phase: tuple[str, float] | None = None  # (name, start) of the head's running phase
 
-    def on_route(self, checkpoints: list[Checkpoint]) -> None:
-        """A (new) route: the checkpoints still ahead."""
+    def on_route(self, checkpoints: list[Checkpoint], stamp: float = 0.0) -> None:
+        """A (new) route: the checkpoints still ahead. A checkpoint the old route had
+        started on (the door that never opened) is kept in the report as abandoned."""
+        head = self._queue[0] if self._queue else None
+        if head is not None and (head.phases or self._phase is not None):
+            self._finish(stamp, "abandoned")
         self._queue = [_Track(cp) for cp in checkpoints]
+        self._phase = None
+
+    def on_status(self, stamp: float, action: str, phase: str) -> None:
+        """The navigator's action ("Door d1 (2/5)") and phase: times the head's phases and
+        takes the position error when its position correction ends."""
+        head = self._queue[0] if self._queue else None
+        ours = head is not None and action.split(" (")[0].split(" ", 1)[-1] == head.cp.id
+        if head is not None and head.passed_s is not None and not ours:
+            self._finish(stamp)
+            self.on_status(stamp, action, phase)  # the next checkpoint may start right away
+            return
+        if self._phase is not None and (not ours or phase != self._phase[0]):
+            name, start = self._phase
+            if head is not None:
+                head.phases[name] = round(head.phases.get(name, 0.0) + stamp - start, 2)
+                if name == "correct" and self._truth is not None:
+                    self._corrected(head)
+            self._phase = None
+        if ours and phase and self._phase is None:
+            self._phase = (phase, stamp)
+
+    def rows(self, stamp: float) -> list[dict[str, Any]]:
+        """The report's rows: the checkpoints done, and the one the mission ended at
+        (abandoned: the door that never opened when there was no other way)."""
+        head = self._queue[0] if self._queue else None
+        if head is None or not (head.phases or self._phase is not None):
+            return list(self.done)
+        result = "abandoned" if head.passed_s is None else "passed"
+        return [*self.done, self._row(head, stamp, result)]
+
+    def _corrected(self, t: _Track) -> None:
+        x, y, theta = self._truth
+        a = t.cp.approach
+        t.position_error_m = math.hypot(x - a.x, y - a.y)
+        dth = math.atan2(math.sin(theta - a.theta), math.cos(theta - a.theta))
+        t.heading_error_deg = math.degrees(abs(dth))
+        t.corrected = True
 
     def on_truth(
         self, stamp: float, x: float, y: float, theta: float, v: float, floor: str
     ) -> None:
+        self._truth = (x, y, theta)
         if not self._queue:
             return
         t = self._queue[0]
@@ -56,12 +105,15 @@ class CheckpointLog:
             t.arrived_s = stamp
         along = (x - ax) * math.cos(ath) + (y - ay) * math.sin(ath)
         if t.arrived_s is not None and t.set_off_s is None:
-            if t.position_error_m is None or dist < t.position_error_m:
-                t.position_error_m = dist  # closest approach = end of position correction
+            if not t.corrected and (t.position_error_m is None or dist < t.position_error_m):
+                t.position_error_m = dist  # closest approach, if there is no Phase 0
             if along > 0.05 and v > STILL:
                 t.set_off_s = stamp
-                dth = math.atan2(math.sin(theta - ath), math.cos(theta - ath))
-                t.heading_error_deg = math.degrees(abs(dth))
+                if not t.corrected:
+                    dth = math.atan2(math.sin(theta - ath), math.cos(theta - ath))
+                    t.heading_error_deg = math.degrees(abs(dth))
+        if t.passed_s is not None:
+            return
         if cp.kind == "door":
             self._door(t, stamp, x, y)
         elif (
@@ -71,7 +123,7 @@ class CheckpointLog:
             and math.hypot(x - cp.exit.x, y - cp.exit.y) < NEAR_M
         ):
             t.floor_after = floor
-            self._finish(stamp)
+            t.passed_s = stamp
 
     def _door(self, t: _Track, stamp: float, x: float, y: float) -> None:
         c = t.cp.centre or t.cp.approach
@@ -80,14 +132,22 @@ class CheckpointLog:
         if t._side is not None and t._side < 0 <= side:
             t.crossed_s = stamp
             t.lateral_offset_m = -(x - c.x) * n[1] + (y - c.y) * n[0]
-            self._finish(stamp)
+            t.passed_s = stamp
             return
         t._side = side
 
-    def _finish(self, stamp: float) -> None:
-        t = self._queue.pop(0)
+    def _finish(self, stamp: float, result: str = "passed") -> None:
+        self.done.append(self._row(self._queue.pop(0), stamp, result))
+        self._phase = None
+
+    def _row(self, t: _Track, stamp: float, result: str) -> dict[str, Any]:
+        """The report row of ``t``, counting the phase still running up to ``stamp``."""
+        phases = dict(t.phases)
+        if self._phase is not None:
+            name, start = self._phase
+            phases[name] = round(phases.get(name, 0.0) + stamp - start, 2)
         cp = t.cp
-        row: dict[str, Any] = {"kind": cp.kind, "id": cp.id, "floor": cp.floor}
+        row: dict[str, Any] = {"kind": cp.kind, "id": cp.id, "floor": cp.floor, "result": result}
         wait = (t.set_off_s - t.arrived_s) if t.set_off_s and t.arrived_s is not None else None
         row.update(
             {
@@ -96,13 +156,15 @@ class CheckpointLog:
                 "wait_s": _r(wait),
                 "position_error_m": _r(t.position_error_m, 3),
                 "heading_error_deg": _r(t.heading_error_deg, 2),
+                "correction_s": phases.get("correct"),
+                "phases": phases,
             }
         )
         if cp.kind == "door":
-            row.update({"crossed_s": _r(stamp), "lateral_offset_m": _r(t.lateral_offset_m, 3)})
+            row.update({"crossed_s": _r(t.passed_s), "lateral_offset_m": _r(t.lateral_offset_m, 3)})
         else:
-            row.update({"to_floor": cp.to_floor, "left_car_s": _r(stamp)})
-        self.done.append(row)
+            row.update({"to_floor": cp.to_floor, "left_car_s": _r(t.passed_s)})
+        return row
 
 
 def _r(value: float | None, digits: int = 2) -> float | None:

@@ -216,7 +216,8 @@ class Recorder:
             "cross_track_rms_m": round(float(np.sqrt(np.mean(self._track_sq))), 4)
             if self._track_sq
             else None,
-            "checkpoints": self.checkpoints.done,
+            "checkpoints": self.checkpoints.rows(self.sim_time_s),
+            "fallbacks": [e["detail"] for e in self.events if e["kind"] == "fallback"],
             "phases": [
                 {
                     "name": p.name,

@@ -135,7 +135,9 @@ class MissionRun:
             self._on_truth,
         )
         bus.subscribe(
-            keys.nav_route, RouteReply, lambda m: self.recorder.checkpoints.on_route(m.checkpoints)
+            keys.nav_route,
+            RouteReply,
+            lambda m: self.recorder.checkpoints.on_route(m.checkpoints, self.recorder.sim_time_s),
         )
         bus.subscribe(
             keys.follow_status,
@@ -177,6 +179,8 @@ class MissionRun:
 
     def _on_status(self, msg: NavStatus) -> None:
         self._last_status = msg
+        if msg.goal_id == self.goal_id and not self.recorder.finished:
+            self.recorder.checkpoints.on_status(msg.stamp, msg.action, msg.phase)
         self.recorder.on_status(msg)
         if self.recorder.finished:
             self.done.set()
@@ -229,20 +233,29 @@ def format_report(report: dict[str, Any]) -> str:
             f"{100 * loc['max_m']:.1f} cm, heading RMS {loc['rms_deg']:.2f} deg"
         )
     for c in report.get("checkpoints", []):
-        extra = (
-            f"lateral offset {c['lateral_offset_m']} m"
-            if c["kind"] == "door"
-            else f"to floor {c['to_floor']}"
-        )
-        lines.append(
-            f"  {c['kind']:8s} {c['id']:14s} wait {c['wait_s']} s, position error "
-            f"{c['position_error_m']} m, heading error {c['heading_error_deg']} deg, "
-            f"{extra}"
-        )
+        lines.append("  " + format_checkpoint(c))
+    for fallback in report.get("fallbacks", []):
+        lines.append(f"  fallback: {fallback}")
     for p in report["phases"]:
         end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
         lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")
     return "\n".join(lines)
+
+
+def format_checkpoint(c: dict[str, Any]) -> str:
+    """One line per checkpoint: result, Phase 0 figures, wait, crossing, phase times."""
+    head = f"{c['kind']:8s} {c['id']:14s} {c.get('result', 'passed'):9s}"
+    corr = c.get("correction_s")
+    fix = f"position error {c['position_error_m']} m, heading {c['heading_error_deg']} deg" + (
+        f" after {corr} s" if corr is not None else ""
+    )
+    extra = (
+        f"lateral offset {c['lateral_offset_m']} m"
+        if c["kind"] == "door"
+        else f"to floor {c['to_floor']}"
+    )
+    phases = " / ".join(f"{k} {v}" for k, v in c.get("phases", {}).items())
+    return f"{head} {fix}, wait {c['wait_s']} s, {extra}" + (f"; {phases} s" if phases else "")
 
 
 def write_report(report: dict[str, Any], path: str | Path) -> None:

@@ -53,3 +53,41 @@ def door_state_from_scan(
         return UNKNOWN
     depth = np.hypot(window[:, 0], window[:, 1])
     return OPEN if bool(np.all(depth > door_dist + margin_m)) else CLOSED
+
+
+def lane_blocked(
+    points: np.ndarray,
+    pose: tuple[float, float, float],
+    door_xy: tuple[float, float],
+    direction: float,
+    sensor_height_m: float,
+    half_width_m: float,
+    lead_m: float,
+    margin_m: float = 0.3,
+    min_points: int = 3,
+    band: tuple[float, float] = (0.5, 1.7),
+) -> bool:
+    """True if something stands in the chair's lane between its leading edge and the door.
+
+    The lane runs along ``direction`` (map frame, the way the chair moves: backwards out of
+    a car it is the heading plus pi), ``half_width_m`` each side of the chair's centre
+    line, from ``lead_m`` ahead of the pose point (the front, or the back when reversing)
+    to the door plane through ``door_xy`` plus ``margin_m``. A leaf swinging or sliding
+    shut enters it; the jambs beside the chair do not. Once the leading edge is past the
+    door plane plus the margin there is nothing left to check (False).
+    """
+    if points is None or len(points) == 0:
+        return False
+    x, y, th = pose
+    ux, uy = math.cos(direction), math.sin(direction)
+    to_plane = (door_xy[0] - x) * ux + (door_xy[1] - y) * uy + margin_m
+    if to_plane <= lead_m:
+        return False
+    height = points[:, 2] + sensor_height_m
+    pts = points[(height >= band[0]) & (height <= band[1])]
+    a = direction - th  # the lane's direction in the sensor frame
+    ca, sa = math.cos(a), math.sin(a)
+    along = pts[:, 0] * ca + pts[:, 1] * sa
+    across = -pts[:, 0] * sa + pts[:, 1] * ca
+    inside = (np.abs(across) <= half_width_m) & (along > lead_m) & (along <= to_plane)
+    return int(np.count_nonzero(inside)) >= min_points

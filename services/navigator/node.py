@@ -15,9 +15,9 @@ import py_trees
 from py_trees.common import Access, Status
 
 from behaviours.fleet import NS
-from behaviours.mission import create_plan_tree, create_route_tree
+from behaviours.mission import EntryParams, create_plan_tree, create_route_tree
 from behaviours.snapshot import signature, snapshot
-from services.navigator.door_check import door_state_from_scan
+from services.navigator.door_check import door_state_from_scan, lane_blocked
 from shared.lockstep import Participant
 from shared.messages import (
     Availability,
@@ -32,6 +32,7 @@ from shared.messages import (
     LiftState,
     NavGoal,
     NavStatus,
+    Odometry,
     Path,
     PointCloud,
     Pose2D,
@@ -57,6 +58,8 @@ class ZenohFleet:
         self.clock: Clock | None = None
         self.participant: Participant | None = None
         self._pose: PoseEstimate | None = None
+        self._odom: Odometry | None = None
+        self.half_width_m = 0.375
         self._follow: FollowStatus | None = None
         self._doors: dict[str, int] = {}
         self._scan: PointCloud | None = None
@@ -104,6 +107,12 @@ class ZenohFleet:
     def pose(self) -> PoseEstimate | None:
         return self._pose
 
+    def on_odom(self, msg: Odometry) -> None:
+        self._odom = msg
+
+    def odometry(self) -> Odometry | None:
+        return self._odom
+
     def on_door_state(self, msg: DoorState) -> None:
         self._doors[msg.door_name] = msg.current_mode
 
@@ -119,6 +128,22 @@ class ZenohFleet:
         p = self._pose.pose
         return self._scan.stamp, door_state_from_scan(
             self._scan.points, (p.x, p.y, p.theta), (x, y), self.sensor_height_m
+        )
+
+    def lane_blocked(
+        self, door_xy: tuple[float, float], direction: float, lead_m: float
+    ) -> tuple[float, bool]:
+        if self._scan is None or self._pose is None:
+            return -1.0, False
+        p = self._pose.pose
+        return self._scan.stamp, lane_blocked(
+            self._scan.points,
+            (p.x, p.y, p.theta),
+            door_xy,
+            direction,
+            self.sensor_height_m,
+            self.half_width_m,
+            lead_m,
         )
 
     def on_lift_state(self, msg: LiftState) -> None:
@@ -218,20 +243,17 @@ class Navigator:
             if result == Status.SUCCESS and self.stage == "plan":
                 self.stage = "route"
                 self.svc.bus.publish(self.svc.keys.nav_route, self.bb.route)
-                c = self.cfg
                 fp = self.svc.cfg.robot.footprint
-                self._grow(
-                    create_route_tree(
-                        self.bb.route,
-                        self.fleet.now,
-                        c.follow_timeout_s,
-                        c.door_timeout_s,
-                        self.svc.cfg.planner.door_speed,
-                        c.lift_timeout_s,
-                        (fp.front - fp.rear) / 2,
-                    )
+                params = EntryParams(
+                    self.cfg,
+                    self.svc.cfg.planner.door_speed,
+                    fp.front,
+                    fp.rear,
+                    self.fleet.half_width_m,
                 )
-                self._set("running", phase="follow", action="navigate")
+                self._grow(create_route_tree(self.bb.route, self.fleet.now, params))
+                self.tree.tick()  # start the first step now: its phase is the status's
+                self._set("running", phase=self.bb.phase, action=self._action())
             elif result == Status.SUCCESS:
                 self._set("succeeded", reason="arrived")
             elif result == Status.FAILURE and self._replan():
@@ -244,7 +266,7 @@ class Navigator:
                 self._set(
                     "running",
                     phase=self.bb.phase,
-                    action="navigate",
+                    action=self._action(),
                     reason=tip.feedback_message if tip else "",
                 )
         self._publish(clock.stamp)
@@ -334,9 +356,33 @@ class Navigator:
         if state in ("failed", "succeeded", "cancelled"):
             self.svc.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
 
+    def _steps(self) -> tuple[int, int, str]:
+        """(index of the route step running, number of steps, its name): a step is a
+        child of the route tree's Drive sequence (a leg, a door, an elevator)."""
+        if self.tree is None or self.stage != "route":
+            return 0, 0, ""
+        drive = self.tree.root.children[0]
+        for i, child in enumerate(drive.children):
+            if child.status == Status.RUNNING:
+                return i, len(drive.children), child.name
+        done = sum(c.status == Status.SUCCESS for c in drive.children)
+        return done, len(drive.children), ""
+
+    def _action(self) -> str:
+        """The running step, e.g. "Door d1_room_1a (2/5)"; "plan" while planning."""
+        if self.stage != "route":
+            return "plan"
+        i, n, name = self._steps()
+        return f"{name} ({i + 1}/{n})" if name else ""
+
     def _progress(self) -> float:
+        """Route steps done, plus the controller's progress along the running one."""
+        i, n, name = self._steps()
+        if n == 0:
+            return 0.0
         follow = self.fleet.follow_status()
-        return follow.progress if follow else 0.0
+        part = follow.progress if follow and name.startswith("Leg") else 0.0
+        return min(1.0, (i + part) / n)
 
     def _publish(self, now: float) -> None:
         s = self.status
@@ -364,7 +410,9 @@ def main(argv: list[str] | None = None) -> None:
             svc.declare("subscribes", keys.key("lift_state")), LiftState, fleet.on_lift_state
         )
         bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, fleet.on_scan)
+        bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, fleet.on_odom)
         fleet.sensor_height_m = svc.cfg.robot.lidar_height_m
+        fleet.half_width_m = svc.cfg.robot.footprint.width / 2 + 0.05
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.tree)
         svc.declare("publishes", keys.nav_route)

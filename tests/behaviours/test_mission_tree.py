@@ -1,12 +1,20 @@
-"""The mission trees ticked for real, against a scripted fleet (the trees are pure logic)."""
+"""The mission trees ticked for real, against a scripted fleet (the trees are pure logic).
+
+The scripted fleet is a perfect controller on demand: ``arrive()`` puts the chair at the
+end of the last path it was sent (a docking goal with its heading) and says so.
+"""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import py_trees
+import pytest
 from py_trees.common import Status
 
-from behaviours.mission import create_plan_tree, create_route_tree
+from behaviours.mission import EntryParams, create_plan_tree, create_route_tree
+from shared.config import NavigatorConfig
 from shared.messages import (
     Checkpoint,
     DoorMode,
@@ -14,6 +22,7 @@ from shared.messages import (
     LiftDoor,
     LiftMotion,
     LiftState,
+    Odometry,
     Path,
     Pose2D,
     PoseEstimate,
@@ -22,7 +31,7 @@ from shared.messages import (
 
 
 class ScriptedFleet:
-    """Answers route requests at once (or never); door modes and follow states as told."""
+    """Answers route requests at once (or never); door modes, LiDAR and arrivals as told."""
 
     def __init__(self, answer: RouteReply | None) -> None:
         self.t = 0.0
@@ -38,6 +47,8 @@ class ScriptedFleet:
         self.floor: str | None = None
         self.scan_stamp = 0.0
         self.lidar = "open"
+        self.lane = False
+        self.x, self.y, self.th = 0.0, 0.0, 0.0
 
     def now(self) -> float:
         return self.t
@@ -56,7 +67,10 @@ class ScriptedFleet:
         return self.follow
 
     def pose(self) -> PoseEstimate | None:
-        return PoseEstimate(self.t, Pose2D(0, 0, 0), np.eye(3))
+        return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3))
+
+    def odometry(self) -> Odometry:
+        return Odometry(self.t, Pose2D(self.x, self.y, self.th), 0.0, 0.0)
 
     def door_mode(self, door_id: str) -> int | None:
         return self.doors.get(door_id)
@@ -67,6 +81,10 @@ class ScriptedFleet:
     def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
         self.scan_stamp += 0.1
         return self.scan_stamp, self.lidar
+
+    def lane_blocked(self, door_xy, direction, lead_m) -> tuple[float, bool]:
+        self.scan_stamp += 0.1
+        return self.scan_stamp, self.lane
 
     def lift_state(self, lift_id: str):
         return self.lifts.get(lift_id)
@@ -83,8 +101,17 @@ class ScriptedFleet:
     def set_floor(self, floor: str) -> None:
         self.floor = floor
 
-    def arrive(self) -> None:
-        self.follow = FollowStatus(self.t, self.sent[-1].path_id, "arrived", 1.0, 0.0, 0.0)
+    def arrive(self, off: tuple[float, float] = (0.0, 0.0)) -> None:
+        """The chair reaches the end of the last path (``off`` metres wrong in x, y)."""
+        path = self.sent[-1]
+        end = path.waypoints[-1]
+        if path.dock_heading is not None:
+            self.th = path.dock_heading
+        elif len(path.waypoints) > 1:
+            d = path.waypoints[-1] - path.waypoints[-2]
+            self.th = math.atan2(d[1], d[0]) + (math.pi if path.reverse else 0.0)
+        self.x, self.y = float(end[0]) + off[0], float(end[1]) + off[1]
+        self.follow = FollowStatus(self.t, path.path_id, "arrived", 1.0, 0.0, 0.0)
 
 
 def grow(root, fleet):
@@ -97,12 +124,22 @@ def blackboard():
     bb = py_trees.blackboard.Client(name="test", namespace="/mission")
     for key in ("goal", "place", "failure", "phase", "route", "blocked"):
         bb.register_key(key, access=py_trees.common.Access.WRITE)
-    bb.goal, bb.place, bb.failure, bb.phase = None, "room_b", "", ""
+    bb.goal, bb.place, bb.failure, bb.phase, bb.blocked = None, "room_b", "", "", ""
     return bb
 
 
-def leg(path_id: str) -> Path:
-    return Path(0.0, path_id, "1", np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.5, 0.0]))
+PARAMS = EntryParams(NavigatorConfig(), 0.2, 0.76, 0.35, 0.375)
+
+
+def route_tree(route: RouteReply, fleet: ScriptedFleet, **nav) -> py_trees.trees.BehaviourTree:
+    params = PARAMS
+    if nav:
+        params = EntryParams(NavigatorConfig(**nav), 0.2, 0.76, 0.35, 0.375)
+    return grow(create_route_tree(route, fleet.now, params), fleet)
+
+
+def leg(path_id: str, a=(-2.0, 0.0), b=(1.0, 0.0)) -> Path:
+    return Path(0.0, path_id, "1", np.array([a, b], float), np.array([0.5, 0.0]))
 
 
 def door(kind: str = "manual") -> Checkpoint:
@@ -111,7 +148,25 @@ def door(kind: str = "manual") -> Checkpoint:
     )
 
 
-ROUTE = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[door()])
+def route(cp: Checkpoint) -> RouteReply:
+    after = leg("r.1", (3.2, 0.0), (6.0, 0.0))
+    return RouteReply(True, leg("r"), legs=[leg("r.0"), after], checkpoints=[cp])
+
+
+ROUTE = route(door())
+
+
+def to_the_door(tree, fleet: ScriptedFleet) -> None:
+    """Leg 0, Phase 0 (correct) and Phase 1 (turn), each reached at once."""
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"
+    for expected in ("Correct d1 #1", "Turn d1 #1"):
+        fleet.arrive()
+        tree.tick()
+        assert fleet.sent[-1].path_id == expected, fleet.sent[-1].path_id
+        assert fleet.sent[-1].dock_heading is not None
+    fleet.arrive()
+    tree.tick()
 
 
 def test_plan_tree_writes_the_route() -> None:
@@ -148,20 +203,21 @@ def test_silent_planner_times_out_on_fleet_time() -> None:
 def test_route_waits_for_the_door_never_taking_unknown_for_open() -> None:
     blackboard()
     fleet = ScriptedFleet(None)
-    tree = grow(create_route_tree(ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
-    tree.tick()
-    assert fleet.sent[-1].path_id == "r.0"
-    fleet.arrive()
+    tree = route_tree(ROUTE, fleet)
+    to_the_door(tree, fleet)
+    waiting = fleet.sent[-1].path_id
     for mode in (None, DoorMode.UNKNOWN, DoorMode.CLOSED, DoorMode.MOVING):  # not open
         if mode is not None:
             fleet.doors["d1"] = mode
         fleet.t += 1
         tree.tick()
-        assert fleet.sent[-1].path_id == "r.0" and tree.root.status == Status.RUNNING
+        assert fleet.sent[-1].path_id == waiting and tree.root.status == Status.RUNNING
     fleet.doors["d1"] = DoorMode.OPEN
-    tree.tick()
+    for _ in range(3):  # three LiDAR scans agree
+        tree.tick()
     through = fleet.sent[-1]
-    assert through.path_id == "r.door0" and np.allclose(through.waypoints[-1], (3.2, 0))
+    assert through.path_id == "r.door.d1" and through.precise
+    assert np.allclose(through.waypoints[-1], (3.2 + 0.2, 0))  # runs past: odometry ends it
     assert through.v_ref[0] == 0.2
     fleet.arrive()
     tree.tick()
@@ -171,34 +227,128 @@ def test_route_waits_for_the_door_never_taking_unknown_for_open() -> None:
     assert tree.root.status == Status.SUCCESS
 
 
-def test_door_that_never_opens_times_out_and_stops() -> None:
+def test_door_that_never_opens_times_out_blocked_and_stops() -> None:
     bb = blackboard()
     fleet = ScriptedFleet(None)
-    tree = grow(create_route_tree(ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
-    tree.tick()
-    fleet.arrive()
-    tree.tick()
+    tree = route_tree(ROUTE, fleet)
+    to_the_door(tree, fleet)
     fleet.t = 61.0
     tree.tick()
     assert tree.root.status == Status.FAILURE
-    assert bb.failure == "WaitForDoorOpen d1: timed out after 60 s"
-    assert fleet.sent[-1].path_id == "r.0"  # never drove towards the closed door
+    assert bb.failure == "WaitForDoorOpen d1: timed out after 60 s" and bb.blocked == "d1"
+    assert not any(p.path_id == "r.door.d1" for p in fleet.sent)  # never drove at it
 
 
 def test_powered_door_is_requested_open_then_released() -> None:
     blackboard()
     fleet = ScriptedFleet(None)
-    route = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[door("powered")])
-    tree = grow(create_route_tree(route, fleet.now, 100.0, 60.0, 0.2), fleet)
-    tree.tick()
-    fleet.arrive()
-    tree.tick()
+    tree = route_tree(route(door("powered")), fleet)
+    to_the_door(tree, fleet)
     assert fleet.door_requests == [("d1", DoorMode.OPEN)]
     fleet.doors["d1"] = DoorMode.OPEN
-    tree.tick()
+    for _ in range(3):
+        tree.tick()
     fleet.arrive()
     tree.tick()
     assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED)
+
+
+def test_position_correction_retries_then_gives_up_with_the_error() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    for attempt in (1, 2, 3):
+        assert fleet.sent[-1].path_id == f"Correct d1 #{attempt}"
+        fleet.arrive(off=(0.3, 0.0))  # the controller says arrived, the pose disagrees
+        tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert "not within 0.15 m / 5 deg after 3 attempts (0.300 m" in bb.failure
+
+
+def test_position_correction_that_stops_converging_fails_early() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    fleet.x = 0.5  # stuck half a metre short, and never gets closer
+    for t in range(6):
+        fleet.t = float(t)
+        tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert "not converging" in bb.failure and "4 s" in bb.failure
+
+
+def test_a_correction_within_tolerance_is_accepted() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    fleet.arrive(off=(0.1, 0.05))  # 0.11 m off: within 0.15 m
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Turn d1 #1"
+
+
+def test_automatic_door_gets_idle_motion_until_it_opens() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(route(door("automatic")), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.CLOSED
+    rocking = []
+    for _ in range(4):
+        path = fleet.sent[-1]
+        assert path.path_id.startswith("IdleMotion d1") and path.v_ref[0] == 0.05
+        rocking.append(float(path.waypoints[-1][0]))
+        fleet.arrive()
+        tree.tick()
+    assert rocking == pytest.approx([1 - 0.12, 1.0, 1 - 0.12, 1.0])  # back and forth
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.door.d1"
+
+
+def test_pass_holds_while_the_lane_is_blocked_and_ends_by_odometry() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.door.d1"
+    stops = fleet.stops
+    fleet.x = 1.5  # on the way
+    fleet.lane = True  # a leaf swings into the doorway ahead
+    tree.tick()
+    assert fleet.stops == stops + 1
+    tree.tick()
+    assert fleet.stops == stops + 1  # held, not stopped again and again
+    fleet.lane = False
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.door.d1"  # resent: carries on
+    fleet.x = 3.2 - 0.01  # odometry: the pass distance is done (the controller is not)
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.1"
+
+
+def test_a_short_leg_is_left_to_position_correction() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    short = leg("r.0", (1.5, 0.0), (1.0, 0.0))  # 0.5 m past the approach pose
+    after = leg("r.1", (3.2, 0.0), (6.0, 0.0))
+    tree = route_tree(RouteReply(True, short, legs=[short, after], checkpoints=[door()]), fleet)
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Correct d1 #1"
 
 
 def lift_at(floor: str, session: str = "s1", mode: int = 2) -> LiftState:
@@ -208,26 +358,44 @@ def lift_at(floor: str, session: str = "s1", mode: int = 2) -> LiftState:
 
 
 LIFT = Checkpoint(
-    "elevator", "lift_a", "1", Pose2D(1, 0, 0, "1"), Pose2D(1, 0, 0, "2"), 2.6, to_floor="2"
+    "elevator",
+    "lift_a",
+    "1",
+    Pose2D(1, 0, 0, "1"),
+    Pose2D(1, 0, 0, "2"),
+    2.6,
+    to_floor="2",
+    centre=Pose2D(2.5, 0, 0, "1"),
 )
-LIFT_ROUTE = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[LIFT])
+LIFT_ROUTE = RouteReply(
+    True, leg("r"), legs=[leg("r.0"), leg("r.1", (1.0, 0.0), (1.0, -3.0))], checkpoints=[LIFT]
+)
 
 
 def test_elevator_ride_follows_the_lift_protocol() -> None:
     blackboard()
     fleet = ScriptedFleet(None)
-    tree = grow(create_route_tree(LIFT_ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree = route_tree(LIFT_ROUTE, fleet)
     tree.tick()
     fleet.arrive()
     tree.tick()
-    assert fleet.lift_requests == [("lift_a", "1")]
+    assert fleet.lift_requests == [("lift_a", "1")]  # called before correcting
+    assert fleet.sent[-1].path_id == "Correct lift_a #1"
+    fleet.arrive()
     fleet.lifts["lift_a"] = lift_at("1", session="someone-else")
     tree.tick()
-    assert fleet.sent[-1].path_id == "r.0"  # busy: waits
-    fleet.lifts["lift_a"] = lift_at("1")
     tree.tick()
+    assert fleet.sent[-1].path_id == "Correct lift_a #1"  # busy: waits
+    fleet.lifts["lift_a"] = lift_at("1")
+    fleet.lidar = "closed"  # the building says open, the LiDAR does not (yet)
+    for _ in range(3):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "Correct lift_a #1"
+    fleet.lidar = "open"
+    for _ in range(3):
+        tree.tick()
     enter = fleet.sent[-1]
-    assert enter.path_id == "r.lift0.in" and not enter.reverse
+    assert enter.path_id == "r.lift.lift_a.in" and not enter.reverse
     assert np.allclose(enter.waypoints[-1], (1 + 2.6 - 0.205, 0))  # body centred in the car
     fleet.arrive()
     tree.tick()
@@ -235,10 +403,11 @@ def test_elevator_ride_follows_the_lift_protocol() -> None:
     tree.tick()  # car still reported at floor 1: keeps waiting
     assert fleet.floor is None
     fleet.lifts["lift_a"] = lift_at("2")
-    tree.tick()
+    for _ in range(3):  # LiDAR behind the chair sees the doorway open
+        tree.tick()
     out = fleet.sent[-1]
     assert fleet.floor == "2" and out.reverse and out.floor == "2"
-    assert np.allclose(out.waypoints[-1], (1, 0))
+    assert np.allclose(out.waypoints[-1], (1 - 0.2, 0))
     fleet.arrive()
     tree.tick()
     assert fleet.released == ["lift_a"] and fleet.sent[-1].path_id == "r.1"
@@ -246,13 +415,13 @@ def test_elevator_ride_follows_the_lift_protocol() -> None:
 
 def test_lift_out_of_service_fails_and_names_it() -> None:
     bb = blackboard()
-    bb.blocked = ""
     fleet = ScriptedFleet(None)
-    tree = grow(create_route_tree(LIFT_ROUTE, fleet.now, 100.0, 60.0, 0.2), fleet)
+    tree = route_tree(LIFT_ROUTE, fleet)
+    tree.tick()
+    fleet.arrive()
     tree.tick()
     fleet.arrive()
     fleet.lifts["lift_a"] = lift_at("1", session="", mode=4)
-    tree.tick()
     tree.tick()
     assert tree.root.status == Status.FAILURE
     assert bb.blocked == "lift_a" and "out of service" in bb.failure
@@ -263,20 +432,19 @@ def test_lidar_must_agree_in_three_scans_before_passing() -> None:
     fleet = ScriptedFleet(None)
     cp = door()
     cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
-    route = RouteReply(True, leg("r"), legs=[leg("r.0"), leg("r.1")], checkpoints=[cp])
-    tree = grow(create_route_tree(route, fleet.now, 100.0, 60.0, 0.2), fleet)
-    tree.tick()
-    fleet.arrive()
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    waiting = fleet.sent[-1].path_id
     fleet.doors["d1"] = DoorMode.OPEN  # the building says open ...
     fleet.lidar = "closed"  # ... the scans do not
     for _ in range(5):
         tree.tick()
-    assert fleet.sent[-1].path_id == "r.0"
+    assert fleet.sent[-1].path_id == waiting
     fleet.lidar = "unknown"  # unknown is not open either
     tree.tick()
     fleet.lidar = "open"
     tree.tick()
     tree.tick()
-    assert fleet.sent[-1].path_id == "r.0"  # two scans agree: not yet
+    assert fleet.sent[-1].path_id == waiting  # two scans agree: not yet
     tree.tick()
-    assert fleet.sent[-1].path_id == "r.door0"  # the third: go
+    assert fleet.sent[-1].path_id == "r.door.d1"  # the third: go

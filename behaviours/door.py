@@ -1,0 +1,132 @@
+"""Door behaviours: ask a powered door to open, trigger an automatic one, verify it open.
+
+Door verification trusts neither source alone: the building's DoorState must say OPEN and
+the LiDAR (the seed's ROI method, services/navigator/door_check.py) must agree in several
+consecutive scans. "Unknown" is never open (the seed took it for open).
+"""
+
+from __future__ import annotations
+
+import math
+
+from py_trees.common import Status
+
+from behaviours.fleet import FleetBehaviour
+from behaviours.motion import dock_path
+from shared.messages import DoorMode
+
+
+class RequestDoor(FleetBehaviour):
+    """Send a DoorRequest (OPEN or CLOSED) for ``door_id``. Always SUCCESS at once."""
+
+    def __init__(self, door_id: str, mode: int) -> None:
+        word = "OPEN" if mode == DoorMode.OPEN else "CLOSED"
+        super().__init__(f"Request {door_id} {word}")
+        self.door_id, self.mode = door_id, mode
+
+    def update(self) -> Status:
+        self.fleet.request_door(self.door_id, self.mode)
+        self.feedback_message = "requested"
+        return Status.SUCCESS
+
+
+class WaitForDoorOpen(FleetBehaviour):
+    """RUNNING until the door is open by both accounts, then SUCCESS.
+
+    The building must report ``door_id`` OPEN and, when ``centre`` is given, the LiDAR
+    check must have said "open" in ``scans`` consecutive new scans. CLOSED, MOVING,
+    OFFLINE, UNKNOWN, no report, and a LiDAR "unknown" are all "not open". The timeout
+    above it bounds the wait. ``stop_on_start`` (default) stops the chair first; idle
+    motion running beside it sets it False.
+    """
+
+    phase = "verify"
+
+    def __init__(
+        self,
+        door_id: str,
+        centre: tuple[float, float] | None = None,
+        scans: int = 3,
+        stop_on_start: bool = True,
+    ) -> None:
+        super().__init__(f"WaitForDoorOpen {door_id}")
+        self.door_id = door_id
+        self.centre = centre
+        self.scans = scans
+        self.stop_on_start = stop_on_start
+        self._agree = 0
+        self._last_scan = -1.0
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self._agree, self._last_scan = 0, -1.0
+        if self.stop_on_start:
+            self.fleet.stop()
+
+    def update(self) -> Status:
+        mode = self.fleet.door_mode(self.door_id)
+        if self.centre is not None:
+            stamp, seen = self.fleet.lidar_door_state(*self.centre)
+            if stamp > self._last_scan:
+                self._last_scan = stamp
+                self._agree = self._agree + 1 if seen == "open" else 0
+        lidar_ok = self.centre is None or self._agree >= self.scans
+        if mode == DoorMode.OPEN and lidar_ok:
+            self.feedback_message = "open"
+            return Status.SUCCESS
+        names = {0: "closed", 1: "moving", 3: "offline", 4: "unknown"}
+        seen = f", LiDAR open in {self._agree}/{self.scans} scans" if self.centre else ""
+        self.feedback_message = f"door {names.get(mode, 'not reported')}{seen}, waiting"
+        return Status.RUNNING
+
+
+class IdleMotion(FleetBehaviour):
+    """Rock slowly back and forth in front of an automatic door so its sensor sees motion.
+
+    The seed's idle motion: +-0.05 m/s, about 25 cm. Alternates docking manoeuvres between
+    ``pose`` and a point ``amplitude_m`` behind it (same heading). Never finishes: it runs
+    beside :class:`WaitForDoorOpen` in a parallel that ends when the door is open, and
+    stops the chair when it is stopped.
+    """
+
+    phase = "verify"
+
+    def __init__(
+        self,
+        door_id: str,
+        floor: str,
+        pose: tuple[float, float, float],
+        speed: float,
+        amplitude_m: float,
+    ) -> None:
+        super().__init__(f"IdleMotion {door_id}")
+        self.floor = floor
+        self.pose = pose
+        self.speed = speed
+        self.amplitude_m = amplitude_m
+        self._back = False
+        self._moves = 0
+
+    def initialise(self) -> None:
+        self._back, self._moves = False, 0
+        self._send()
+
+    def _send(self) -> None:
+        x, y, h = self.pose
+        self._back = not self._back
+        self._moves += 1
+        if self._back:
+            x, y = x - self.amplitude_m * math.cos(h), y - self.amplitude_m * math.sin(h)
+        self._path_id = f"{self.name} #{self._moves}"
+        self.fleet.send_path(dock_path(self._path_id, self.floor, x, y, h, self.speed))
+
+    def update(self) -> Status:
+        status = self.fleet.follow_status()
+        if status is not None and status.path_id == self._path_id and status.state == "arrived":
+            self._send()
+        self.feedback_message = f"{'back' if self._back else 'forward'} (move {self._moves})"
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID and self.fleet is not None:
+            self.fleet.stop()

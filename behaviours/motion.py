@@ -1,0 +1,325 @@
+"""Behaviours that move the chair: follow a path, dock at a pose, drive through a doorway.
+
+Each one hands the controller a :class:`~shared.messages.Path` and watches the
+controller's FollowStatus and the pose; none of them is ever FAILURE because time runs
+out (the Timeout above it does that), and each stops the chair when it is pre-empted.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Access, Status
+
+from behaviours.fleet import FleetBehaviour
+from shared.messages import DoorMode, Path
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+class FollowPath(FleetBehaviour):
+    """Send ``path`` to the controller and wait until it reports arrival.
+
+    RUNNING while the controller follows; SUCCESS on ``arrived`` for this path. A controller
+    that reports ``idle`` without this path (it was restarted) gets the path again. Never
+    FAILURE itself: the timeout above it bounds the wait. ``terminate`` on pre-emption
+    stops the chair.
+    """
+
+    phase = "follow"
+
+    def __init__(self, path: Path, name: str = "", phase: str = "follow") -> None:
+        super().__init__(name or f"Follow {path.path_id}")
+        self.path = path
+        self.phase = phase
+        self.path_id = path.path_id
+        self.sent_at = 0.0
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self.send()
+        self.feedback_message = f"following {self.path_id}"
+
+    def send(self) -> None:
+        self.sent_at = self.fleet.now()
+        self.fleet.send_path(self.path)
+
+    def arrived(self) -> bool:
+        """True once the controller reports arrival on this path (resends it after a restart)."""
+        status = self.fleet.follow_status()
+        restarted = (
+            status is not None
+            and status.state in ("idle", "no_pose")
+            and status.path_id != self.path_id
+            and status.stamp > self.sent_at
+        )
+        if restarted:  # a restarted controller has lost the path: send it again
+            self.send()
+            self.feedback_message = f"controller idle: resent {self.path_id}"
+            return False
+        if status is None or status.path_id != self.path_id:
+            return False
+        self.feedback_message = (
+            f"{status.state}: {100 * status.progress:.0f} %, {status.distance_to_goal:.2f} m to go"
+        )
+        return status.state == "arrived"
+
+    def update(self) -> Status:
+        return Status.SUCCESS if self.arrived() else Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID and self.fleet is not None:
+            self.fleet.stop()
+
+
+class StopChair(FleetBehaviour):
+    """Command the controller to drop its path (zero speed). Always SUCCESS at once."""
+
+    phase = "stop"
+
+    def __init__(self, name: str = "StopChair") -> None:
+        super().__init__(name)
+
+    def update(self) -> Status:
+        self.bb.phase = self.phase
+        self.fleet.stop()
+        self.feedback_message = "chair stopped"
+        return Status.SUCCESS
+
+
+def dock_path(path_id: str, floor: str, x: float, y: float, heading: float, speed: float) -> Path:
+    """A docking manoeuvre to (x, y) facing ``heading`` at up to ``speed``."""
+    return Path(0.0, path_id, floor, np.array([[x, y]]), np.array([speed]), dock_heading=heading)
+
+
+class DockAt(FleetBehaviour):
+    """Drive to a pose and check it: the seed's Phase 0 (position correction), damped.
+
+    The controller docks (services/controller/docking.py); this behaviour checks the
+    result on the pose estimate. SUCCESS when the controller reports arrival and the pose
+    is within ``position_tolerance_m`` and ``heading_tolerance_deg``; otherwise it sends
+    the manoeuvre again, up to ``attempts`` times in all. FAILURE when the attempts run
+    out, or when the error has not shrunk for ``stall_s`` (the convergence check: a
+    chair that cannot get closer should not keep trying until the time limit).
+
+    ``heading`` None means "face ``face`` (x, y) from wherever the chair stands": the
+    seed's Phase 1 turn towards the exit pose, on the spot. The final errors go to
+    ``/mission/correction`` as ``(position_m, heading_deg, seconds)``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        phase: str,
+        floor: str,
+        target: tuple[float, float],
+        heading: float | None,
+        speed: float,
+        position_tolerance_m: float = 0.15,
+        heading_tolerance_deg: float = 5.0,
+        attempts: int = 3,
+        stall_s: float = 4.0,
+        face: tuple[float, float] | None = None,
+    ) -> None:
+        super().__init__(name)
+        self.phase = phase
+        self.floor = floor
+        self.target, self.heading, self.face = target, heading, face
+        self.speed = speed
+        self.position_tolerance_m = position_tolerance_m
+        self.heading_tolerance = math.radians(heading_tolerance_deg)
+        self.attempts = attempts
+        self.stall_s = stall_s
+        self.bb.register_key("correction", access=Access.WRITE)
+        self._goal: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._tries = 0
+        self._best = math.inf
+        self._best_at = 0.0
+        self._started = 0.0
+        self._path_id = ""
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self._tries = 0
+        self._best, self._started = math.inf, self.fleet.now()
+        x, y = self.target
+        heading = self.heading
+        if heading is None:  # turn on the spot towards ``face``
+            est = self.fleet.pose()
+            if est is not None:
+                x, y = est.pose.x, est.pose.y
+            fx, fy = self.face
+            heading = math.atan2(fy - y, fx - x)
+        self._goal = (x, y, heading)
+        self._send()
+
+    def _send(self) -> None:
+        self._tries += 1
+        self._best_at = self.fleet.now()
+        self._path_id = f"{self.name} #{self._tries}"
+        x, y, h = self._goal
+        self.fleet.send_path(dock_path(self._path_id, self.floor, x, y, h, self.speed))
+
+    def errors(self) -> tuple[float, float] | None:
+        """(position error m, heading error rad) of the pose estimate, None without one."""
+        est = self.fleet.pose()
+        if est is None:
+            return None
+        p = est.pose
+        x, y, h = self._goal
+        return math.hypot(x - p.x, y - p.y), abs(_wrap(h - p.theta))
+
+    def update(self) -> Status:
+        err = self.errors()
+        if err is None:
+            self.feedback_message = "no pose estimate"
+            return Status.RUNNING
+        dist, dth = err
+        now = self.fleet.now()
+        score = dist + 0.2 * dth  # 0.2 m per radian: turning on the spot counts as progress
+        if score < self._best - 0.005:
+            self._best, self._best_at = score, now
+        within = dist <= self.position_tolerance_m and dth <= self.heading_tolerance
+        self.feedback_message = (
+            f"error {dist:.3f} m, {math.degrees(dth):.1f} deg (attempt {self._tries})"
+        )
+        status = self.fleet.follow_status()
+        arrived = (
+            status is not None and status.path_id == self._path_id and status.state == "arrived"
+        )
+        if arrived and within:
+            self.bb.correction = (dist, math.degrees(dth), now - self._started)
+            self.feedback_message = (
+                f"done: {dist:.3f} m, {math.degrees(dth):.1f} deg in {now - self._started:.1f} s"
+            )
+            return Status.SUCCESS
+        if arrived and self._tries >= self.attempts:
+            return self.fail(
+                f"not within {self.position_tolerance_m} m / "
+                f"{math.degrees(self.heading_tolerance):.0f} deg after {self._tries} attempts "
+                f"({dist:.3f} m, {math.degrees(dth):.1f} deg)"
+            )
+        if arrived:
+            self._send()
+            return Status.RUNNING
+        if now - self._best_at > self.stall_s:
+            return self.fail(
+                f"not converging: error {dist:.3f} m, {math.degrees(dth):.1f} deg "
+                f"has not shrunk for {self.stall_s:g} s"
+            )
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status in (Status.INVALID, Status.FAILURE) and self.fleet is not None:
+            self.fleet.stop()
+
+
+class DriveThrough(FollowPath):
+    """Drive a straight pass (through a door, into or out of a car) and end it by odometry.
+
+    The pass ends when the wheel odometry says the chair has travelled the distance from
+    where it stood to the pass's end, measured along the pass (the seed measured it by
+    dead reckoning on wall-clock time; localisation can jump while the chair is inside a
+    door frame, the wheels do not). The path sent to the controller runs ``overrun_m``
+    past the end, so the controller does not stop early; it is a fallback end only.
+
+    It holds (chair stopped, path resent when clear) while the lane ahead is blocked by
+    LiDAR (a leaf closing in front of the chair: see
+    :func:`services.navigator.door_check.lane_blocked`) or, for a door, while the
+    building stops reporting the door OPEN.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        phase: str,
+        floor: str,
+        start: tuple[float, float],
+        end: tuple[float, float],
+        speed: float,
+        door_xy: tuple[float, float] | None,
+        lead_m: float,
+        door_id: str = "",
+        reverse: bool = False,
+        overrun_m: float = 0.2,
+        tolerance_m: float = 0.03,
+    ) -> None:
+        a, b = np.asarray(start, float), np.asarray(end, float)
+        length = float(np.linalg.norm(b - a))
+        self.direction = math.atan2(b[1] - a[1], b[0] - a[0])
+        u = (b - a) / max(length, 1e-9)
+        far = b + u * overrun_m
+        n = max(2, int(np.ceil((length + overrun_m) / 0.25)) + 1)
+        v = np.full(n, speed)
+        v[-1] = 0.0
+        path = Path(0.0, name, floor, np.linspace(a, far, n), v, reverse=reverse, precise=True)
+        super().__init__(path, name, phase)
+        self.end = (float(b[0]), float(b[1]))
+        self.door_xy = door_xy
+        self.lead_m = lead_m
+        self.door_id = door_id
+        self.reverse = reverse
+        self.tolerance_m = tolerance_m
+        self.required_m = length
+        self.held_for = ""
+        self._odom0: tuple[float, float] | None = None
+        self._last_scan = -1.0
+        self._blocked = False
+
+    def initialise(self) -> None:
+        est = self.fleet.pose()
+        if est is not None:  # the distance still to go, from where the chair stands
+            ux, uy = math.cos(self.direction), math.sin(self.direction)
+            p = est.pose
+            self.required_m = (self.end[0] - p.x) * ux + (self.end[1] - p.y) * uy
+        odom = self.fleet.odometry()
+        self._odom0 = (odom.pose.x, odom.pose.y) if odom is not None else None
+        self._odom_dir = odom.pose.theta + (math.pi if self.reverse else 0.0) if odom else 0.0
+        self.held_for, self._blocked, self._last_scan = "", False, -1.0
+        super().initialise()
+
+    def travelled(self) -> float | None:
+        """Metres travelled along the pass since it began, by wheel odometry."""
+        odom = self.fleet.odometry()
+        if odom is None or self._odom0 is None:
+            return None
+        dx, dy = odom.pose.x - self._odom0[0], odom.pose.y - self._odom0[1]
+        return dx * math.cos(self._odom_dir) + dy * math.sin(self._odom_dir)
+
+    def _hold_reason(self) -> str:
+        if self.door_id and self.fleet.door_mode(self.door_id) != DoorMode.OPEN:
+            return f"door {self.door_id} no longer reported open"
+        if self.door_xy is not None:
+            stamp, blocked = self.fleet.lane_blocked(self.door_xy, self.direction, self.lead_m)
+            if stamp > self._last_scan:
+                self._last_scan, self._blocked = stamp, blocked
+            if self._blocked:
+                return "LiDAR: something in the doorway ahead"
+        return ""
+
+    def update(self) -> Status:
+        reason = self._hold_reason()
+        if reason:
+            if not self.held_for:
+                self.fleet.stop()
+            self.held_for = reason
+            self.feedback_message = f"holding: {reason}"
+            return Status.RUNNING
+        if self.held_for:  # clear again: carry on
+            self.held_for = ""
+            self.send()
+            return Status.RUNNING
+        done = self.travelled()
+        if done is not None and done >= self.required_m - self.tolerance_m:
+            self.fleet.stop()
+            self.feedback_message = f"passed: {done:.2f} m by odometry"
+            return Status.SUCCESS
+        if self.arrived():  # the controller reached the overrun end: odometry lags or is lost
+            self.feedback_message = "passed: controller reached the end"
+            return Status.SUCCESS
+        if done is not None:
+            self.feedback_message = f"{done:.2f} of {self.required_m:.2f} m by odometry"
+        return Status.RUNNING
