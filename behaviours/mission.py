@@ -192,7 +192,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
     if cp.door_type == "powered":
         steps.append(RequestDoor(cp.id, DoorMode.OPEN))
     wait: py_trees.behaviour.Behaviour
-    if cp.door_type == "automatic":  # rock gently so the door's motion sensor fires
+    if cp.door_type == "automatic" and nav.idle_motion:  # rock so the motion sensor fires
         wait = py_trees.composites.Parallel(
             f"Open {cp.id}",
             policy=py_trees.common.ParallelPolicy.SuccessOnOne(),

@@ -33,6 +33,8 @@ class _Track:
     corrected: bool = False
     passed_s: float | None = None  # crossed the door plane / out of the car: done when the
     # navigator's action moves on
+    closing_at: tuple[float, float, float] | None = None  # (t, x, y): door left OPEN mid-pass
+    closing_stop_m: float | None = None  # how far the chair went after that before it stood
     phases: dict[str, float] = field(default_factory=dict)
     _side: float | None = None
 
@@ -74,6 +76,23 @@ class CheckpointLog:
         if ours and phase and self._phase is None:
             self._phase = (phase, stamp)
 
+    def on_door_state(self, stamp: float, door_id: str, open_now: bool) -> None:
+        """The building's report of a door: one that stops being open while the chair is
+        passing it (before the plane) starts the stopping-distance measurement."""
+        head = self._queue[0] if self._queue else None
+        if (
+            head is None
+            or head.cp.id != door_id
+            or open_now
+            or head.closing_at is not None
+            or head.passed_s is not None
+            or self._phase is None
+            or self._phase[0] != "pass"
+            or self._truth is None
+        ):
+            return
+        head.closing_at = (stamp, self._truth[0], self._truth[1])
+
     def rows(self, stamp: float) -> list[dict[str, Any]]:
         """The report's rows: the checkpoints done, and the one the mission ended at
         (abandoned: the door that never opened when there was no other way)."""
@@ -114,6 +133,8 @@ class CheckpointLog:
                     t.heading_error_deg = math.degrees(abs(dth))
         if t.passed_s is not None:
             return
+        if t.closing_at is not None and t.closing_stop_m is None and abs(v) < STILL:
+            t.closing_stop_m = math.hypot(x - t.closing_at[1], y - t.closing_at[2])
         if cp.kind == "door":
             self._door(t, stamp, x, y)
         elif (
@@ -162,6 +183,9 @@ class CheckpointLog:
         )
         if cp.kind == "door":
             row.update({"crossed_s": _r(t.passed_s), "lateral_offset_m": _r(t.lateral_offset_m, 3)})
+            if t.closing_at is not None:
+                row["closing_at_s"] = _r(t.closing_at[0])
+                row["closing_stop_m"] = _r(t.closing_stop_m, 3)
         else:
             row.update({"to_floor": cp.to_floor, "left_car_s": _r(t.passed_s)})
         return row

@@ -26,6 +26,8 @@ from shared import config as config_mod
 from shared.lockstep import Participant
 from shared.messages import (
     Clock,
+    DoorMode,
+    DoorState,
     Event,
     FollowStatus,
     NavGoal,
@@ -152,6 +154,13 @@ class MissionRun:
             lambda m: self.recorder.on_pose(m.stamp, m.pose.x, m.pose.y, m.pose.theta),
         )
         bus.subscribe(keys.key("events"), Event, self._on_event)
+        bus.subscribe(
+            keys.key("door_state"),
+            DoorState,
+            lambda m: self.recorder.checkpoints.on_door_state(
+                m.stamp, m.door_name, m.current_mode == DoorMode.OPEN
+            ),
+        )
 
     def _stage(self) -> int:
         stages = self.scenario.config.sim.lockstep_stages
@@ -254,6 +263,8 @@ def format_checkpoint(c: dict[str, Any]) -> str:
         if c["kind"] == "door"
         else f"to floor {c['to_floor']}"
     )
+    if c.get("closing_at_s") is not None:
+        extra += f", door closing at {c['closing_at_s']} s: stopped within {c['closing_stop_m']} m"
     phases = " / ".join(f"{k} {v}" for k, v in c.get("phases", {}).items())
     return f"{head} {fix}, wait {c['wait_s']} s, {extra}" + (f"; {phases} s" if phases else "")
 

@@ -129,3 +129,30 @@ def test_door_stuck_closed_with_another_way_round_reroutes_and_arrives() -> None
     ]
     assert len(report["fallbacks"]) == 1 and "door_ab" in report["fallbacks"][0]
     assert report["checkpoints"][0]["phases"]["verify"] == pytest.approx(20.0, abs=0.2)
+
+
+def test_automatic_door_is_opened_by_idle_motion_and_only_by_it() -> None:
+    report, out = run("automatic_door_idle")
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
+    (door,) = report["checkpoints"]
+    assert door["id"] == "d1_lobby_1" and door["result"] == "passed"
+    assert door["phases"]["verify"] > 1.0  # closed at first: it had to be woken up
+    # the same start without idle motion: the sensor never sees motion, the door stays shut
+    still = MissionRun(
+        load_scenario(
+            ROOT / "scenarios" / "automatic_door_idle.yaml", ["navigator.idle_motion=false"]
+        ),
+        out=Capture(),
+        fleet_output=Capture(),
+    ).run()
+    assert not still["success"] and still["collisions"] == 0
+    assert still["reason"].startswith("WaitForDoorOpen d1_lobby_1: timed out after 30 s")
+
+
+def test_door_closing_in_front_of_the_passing_chair_stops_it_within_half_a_metre() -> None:
+    report, out = run("door_closes_during_pass")
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
+    (door,) = report["checkpoints"]
+    assert door["closing_at_s"] == pytest.approx(10.5, abs=0.1)
+    assert door["closing_stop_m"] < 0.5
+    assert door["crossed_s"] > 30.0  # it crossed only after the door was open again
