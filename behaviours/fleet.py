@@ -79,6 +79,9 @@ class Fleet(Protocol):
     def set_floor(self, floor: str) -> None:
         """Tell the localisation the chair is now on ``floor`` (same x, y, heading)."""
 
+    def event(self, kind: str, detail: str) -> None:
+        """Report something that happened (a safety stop, a fallback) to whoever listens."""
+
 
 NS = "/mission"
 

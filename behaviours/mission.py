@@ -4,7 +4,8 @@ A mission runs two trees, one after the other (the second is built from the rout
 first one got, as the seed's phase manager built its action list)::
 
     Plan (Selector, memory)            Route (Selector, memory)
-    ├── PlanTimeout(ComputeRoute)      ├── Drive (Sequence, memory)
+    ├── PlanTimeout(ComputeRoute)      ├── Safety (SafetyGate: holds all below while unsafe)
+    │                                  │   Drive (Sequence, memory)
     └── SafeStop                       │   ├── Leg 0: Timeout(FollowPath)
         ├── StopChair                  │   ├── Door <id> (Sequence, memory)
         └── MissionFailed              │   │   ├── Phase 0: Timeout(DockAt approach)   correct
@@ -42,6 +43,7 @@ from behaviours.door import IdleMotion, RequestDoor, WaitForDoorOpen
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import NS, FleetBehaviour
 from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
+from behaviours.safety import SafetyGate
 from behaviours.timeouts import Timeout
 from shared.config import NavigatorConfig
 from shared.messages import DoorMode, Path, RouteReply
@@ -336,4 +338,5 @@ def create_route_tree(
         else:
             steps.append(_elevator_steps(cp, route_id, params, clock, record))
     drive = py_trees.composites.Sequence("Drive", memory=True, children=steps)
-    return py_trees.composites.Selector("Route", memory=True, children=[drive, _safe_stop()])
+    safety = SafetyGate("Safety", drive, clock, nav.safety_timeout_s, record)
+    return py_trees.composites.Selector("Route", memory=True, children=[safety, _safe_stop()])

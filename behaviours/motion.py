@@ -139,12 +139,14 @@ class DockAt(FleetBehaviour):
         self._best = math.inf
         self._best_at = 0.0
         self._started = 0.0
+        self._last_update = 0.0
         self._path_id = ""
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
         self._tries = 0
         self._best, self._started = math.inf, self.fleet.now()
+        self._last_update = self._started
         x, y = self.target
         heading = self.heading
         if heading is None:  # turn on the spot towards ``face``
@@ -179,6 +181,9 @@ class DockAt(FleetBehaviour):
             return Status.RUNNING
         dist, dth = err
         now = self.fleet.now()
+        if now - self._last_update > 1.0:  # not ticked for a while (a safety hold)
+            self._best_at = now
+        self._last_update = now
         score = dist + 0.2 * dth  # 0.2 m per radian: turning on the spot counts as progress
         if score < self._best - 0.005:
             self._best, self._best_at = score, now

@@ -243,6 +243,9 @@ def format_report(report: dict[str, Any]) -> str:
         )
     for c in report.get("checkpoints", []):
         lines.append("  " + format_checkpoint(c))
+    for e in report.get("events", []):
+        if e["kind"] in ("safety_stop", "safety_clear"):
+            lines.append(f"  {e['kind']:12s} t={e['t']:6.1f} s  {e['detail']}")
     for fallback in report.get("fallbacks", []):
         lines.append(f"  fallback: {fallback}")
     for p in report["phases"]:

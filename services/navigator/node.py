@@ -45,7 +45,6 @@ from shared.topics import Keys
 from shared.transport import Bus
 
 NAME = "navigator"
-UNSAFE = ("stale_pose", "stale_scan", "obstacle", "blocked", "stale")
 
 
 class ZenohFleet:
@@ -176,6 +175,11 @@ class ZenohFleet:
             self.keys.initial_pose, PoseEstimate(self.now(), pose, self._pose.covariance)
         )
 
+    def event(self, kind: str, detail: str) -> None:
+        level = "warning" if kind in ("safety_stop", "fallback") else "info"
+        key = self.keys.key("events", source=NAME)
+        self.bus.publish(key, Event(self.now(), NAME, kind, detail, level))
+
     def request_door(self, door_id: str, mode: int) -> None:
         req = DoorRequest(self.now(), self.keys.robot, door_id, mode)
         self.bus.publish(self.keys.key("door_request", door=door_id), req)
@@ -192,7 +196,6 @@ class Navigator:
         self.status = NavStatus(0.0, "", "idle")
         self._last_sent: tuple | None = None
         self._tree_sig: tuple | None = None
-        self._unsafe_since: float | None = None
         self._tree_sent_at = -1e9
         self._last_sent_at = -1e9
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
@@ -217,7 +220,6 @@ class Navigator:
         self.fleet.avoid.clear()
         self.fleet.session = f"{self.svc.keys.robot}-{msg.goal_id}"
         self.replans = 0
-        self._unsafe_since = None
         self.fallbacks: list[str] = []
         self.stage = "plan"
         self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
@@ -234,9 +236,6 @@ class Navigator:
     def step(self, clock: Clock) -> None:
         self.fleet.clock = clock
         if self.tree is not None and self.status.state == "running":
-            if self._safety_stop(clock.stamp):
-                self._publish(clock.stamp)
-                return
             self.tree.tick()
             self._stream_tree(clock.stamp)
             result = self.tree.root.status
@@ -270,33 +269,6 @@ class Navigator:
                     reason=tip.feedback_message if tip else "",
                 )
         self._publish(clock.stamp)
-
-    def _safety_stop(self, now: float) -> bool:
-        """Watch the controller's safety stops (stale pose or scan, obstacle in the stop zone,
-        every sample blocked): report when one starts and ends, and end the mission safely
-        if one lasts longer than ``navigator.safety_timeout_s``. True if the mission ended."""
-        follow = self.fleet.follow_status()
-        state = follow.state if follow is not None else ""
-        unsafe = state in UNSAFE
-        events_key = self.svc.keys.key("events", source=NAME)
-        if unsafe and self._unsafe_since is None:
-            self._unsafe_since = now
-            self.svc.bus.publish(events_key, Event(now, NAME, "safety_stop", state, "warning"))
-        elif not unsafe and self._unsafe_since is not None:
-            held = now - self._unsafe_since
-            self._unsafe_since = None
-            self.svc.bus.publish(
-                events_key, Event(now, NAME, "safety_clear", f"after {held:.1f} s", "info")
-            )
-        if self._unsafe_since is not None and now - self._unsafe_since > self.cfg.safety_timeout_s:
-            self.tree.interrupt()
-            self.fleet.stop()
-            self._set(
-                "failed",
-                reason=f"safety stop ({state}) for more than {self.cfg.safety_timeout_s:g} s",
-            )
-            return True
-        return False
 
     def _stream_tree(self, now: float) -> None:
         """Publish a snapshot when the tree's statuses change (feedback alone: at 2 Hz)."""
@@ -361,7 +333,7 @@ class Navigator:
         child of the route tree's Drive sequence (a leg, a door, an elevator)."""
         if self.tree is None or self.stage != "route":
             return 0, 0, ""
-        drive = self.tree.root.children[0]
+        drive = self.tree.root.children[0].decorated  # Route -> Safety -> Drive
         for i, child in enumerate(drive.children):
             if child.status == Status.RUNNING:
                 return i, len(drive.children), child.name

@@ -6,6 +6,7 @@ end of the last path it was sent (a docking goal with its heading) and says so.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -49,6 +50,7 @@ class ScriptedFleet:
         self.lidar = "open"
         self.lane = False
         self.x, self.y, self.th = 0.0, 0.0, 0.0
+        self.events: list[tuple[str, str]] = []
 
     def now(self) -> float:
         return self.t
@@ -64,7 +66,11 @@ class ScriptedFleet:
         self.stops += 1
 
     def follow_status(self) -> FollowStatus | None:
-        return self.follow
+        # a live controller reports every cycle: its last state, stamped now
+        return dataclasses.replace(self.follow, stamp=self.t) if self.follow else None
+
+    def event(self, kind: str, detail: str) -> None:
+        self.events.append((kind, detail))
 
     def pose(self) -> PoseEstimate | None:
         return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3))
@@ -448,3 +454,57 @@ def test_lidar_must_agree_in_three_scans_before_passing() -> None:
     assert fleet.sent[-1].path_id == waiting  # two scans agree: not yet
     tree.tick()
     assert fleet.sent[-1].path_id == "r.door.d1"  # the third: go
+
+
+def test_safety_gate_holds_everything_and_resumes_where_it_was() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.door.d1"
+    fleet.follow = FollowStatus(fleet.t, "r.door.d1", "obstacle", 0.2, 1.8, 0.0)
+    sent = len(fleet.sent)
+    for t in range(1, 6):
+        fleet.t = float(t)
+        tree.tick()
+        assert tree.root.status == Status.RUNNING
+    assert fleet.events == [("safety_stop", "obstacle")]
+    assert len(fleet.sent) == sent  # the mission below was not ticked
+    fleet.follow = FollowStatus(fleet.t, "r.door.d1", "following", 0.2, 1.8, 0.0)
+    tree.tick()
+    assert len(fleet.events) == 1  # clear, but not for long enough to call it over
+    fleet.t += 0.5
+    tree.tick()
+    assert fleet.events[-1] == ("safety_clear", "obstacle cleared after 4.0 s")
+    fleet.arrive()  # carries on with the pass, not from the start of the route
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.1"
+
+
+def test_safety_stop_longer_than_its_timeout_ends_the_mission_safely() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet, safety_timeout_s=10.0)
+    tree.tick()
+    fleet.follow = FollowStatus(fleet.t, "r.0", "stale_scan", 0.2, 1.8, 0.0)
+    stops = fleet.stops
+    for t in range(12):
+        fleet.t = float(t)
+        tree.tick()
+    assert tree.root.status == Status.FAILURE and fleet.stops > stops
+    assert bb.failure == "safety stop (stale_scan) for more than 10 s"
+
+
+def test_a_silent_controller_is_unsafe() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet)
+    tree.tick()
+    fleet.arrive()
+    fleet.follow_status = lambda: FollowStatus(0.0, "r.0", "following", 0.2, 1.8, 0.0)
+    fleet.t = 2.0
+    tree.tick()
+    assert fleet.events == [("safety_stop", "controller_silent")]

@@ -156,3 +156,23 @@ def test_door_closing_in_front_of_the_passing_chair_stops_it_within_half_a_metre
     assert door["closing_at_s"] == pytest.approx(10.5, abs=0.1)
     assert door["closing_stop_m"] < 0.5
     assert door["crossed_s"] > 30.0  # it crossed only after the door was open again
+
+
+def test_safety_branch_holds_the_chair_while_someone_blocks_it_then_carries_on() -> None:
+    report, out = run("person_in_doorway")
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
+    spells = [(e["kind"], e["detail"]) for e in report["events"] if e["kind"].startswith("safety")]
+    assert [k for k, _ in spells] == ["safety_stop", "safety_clear"]
+    assert spells[0][1] == "obstacle"
+    (door,) = report["checkpoints"]
+    assert door["result"] == "passed" and door["phases"]["pass"] > 15.0  # held in the pass
+    # the same hold with a 5 s safety timeout: the mission ends safely and says why
+    short = MissionRun(
+        load_scenario(
+            ROOT / "scenarios" / "person_in_doorway.yaml", ["navigator.safety_timeout_s=5"]
+        ),
+        out=Capture(),
+        fleet_output=Capture(),
+    ).run()
+    assert not short["success"] and short["collisions"] == 0
+    assert short["reason"] == "safety stop (obstacle) for more than 5 s"

@@ -1,0 +1,100 @@
+"""The safety branch: while the chair is unsafe, nothing below it runs.
+
+The controller already zeroes its command when its pose is stale or lost, no scan has
+arrived, something stands in the stop zone, or every trajectory collides; it says so in
+its FollowStatus. A controller that has gone silent is unsafe too (the base's watchdog
+stops the chair, but nothing should be asked of it). The gate turns that into mission
+logic: it stops ticking the mission (pre-empting every phase, without resetting its
+progress, so the chair carries on where it was when the cause clears), reports when a
+stop starts and ends, and fails the mission if one lasts longer than its timeout.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import py_trees
+from py_trees.common import Status
+
+UNSAFE = ("stale_pose", "stale_scan", "obstacle", "blocked", "stale")
+
+
+class SafetyGate(py_trees.decorators.Decorator):
+    """Ticks its child only while the chair is safe; holds (RUNNING) while it is not.
+
+    FAILURE, with ``on_timeout(reason)`` called, when one unsafe spell lasts longer than
+    ``timeout_s`` of fleet time (a spell ends after ``clear_s`` without a cause, so a
+    person walking out of the stop zone makes one spell, not several). Needs
+    ``setup(fleet=...)`` (a :class:`behaviours.fleet.Fleet`); ``silent_s`` is how old the
+    controller's last status may be.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        child: py_trees.behaviour.Behaviour,
+        clock: Callable[[], float],
+        timeout_s: float,
+        on_timeout: Callable[[str], None],
+        silent_s: float = 1.0,
+        clear_s: float = 0.5,
+    ) -> None:
+        super().__init__(name=name, child=child)
+        self.clock = clock
+        self.timeout_s = timeout_s
+        self.on_timeout = on_timeout
+        self.silent_s = silent_s
+        self.clear_s = clear_s
+        self.fleet = None
+        self.since: float | None = None
+        self.clear_since: float | None = None
+        self.cause = ""
+
+    def setup(self, **kwargs) -> None:
+        self.fleet = kwargs["fleet"]
+
+    def unsafe(self) -> str:
+        """Why the chair is unsafe now, or "" if it is not."""
+        status = self.fleet.follow_status()
+        if status is None:
+            return ""  # nothing sent yet: the first path will tell
+        if status.state in UNSAFE:
+            return status.state
+        if self.clock() - status.stamp > self.silent_s:
+            return "controller_silent"
+        return ""
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        cause = self.unsafe()
+        now = self.clock()
+        if not cause:
+            if self.since is not None:  # one spell ends once it has stayed clear a while
+                self.clear_since = now if self.clear_since is None else self.clear_since
+                if now - self.clear_since >= self.clear_s:
+                    held = self.clear_since - self.since
+                    self.fleet.event("safety_clear", f"{self.cause} cleared after {held:.1f} s")
+                    self.since, self.clear_since, self.cause = None, None, ""
+            yield from super().tick()
+            return
+        self.clear_since = None
+        if self.since is None:
+            self.since, self.cause = now, cause
+            self.fleet.event("safety_stop", cause)
+        if self.status != Status.RUNNING:
+            self.initialise()
+        held = now - self.since
+        if held > self.timeout_s:
+            reason = f"safety stop ({cause}) for more than {self.timeout_s:g} s"
+            self.feedback_message = reason
+            self.fleet.stop()
+            self.on_timeout(reason)
+            self.stop(Status.FAILURE)
+            self.status = Status.FAILURE
+        else:
+            self.feedback_message = f"holding: {cause} for {held:.1f} s"
+            self.status = Status.RUNNING
+        yield self
+
+    def update(self) -> Status:
+        self.feedback_message = ""
+        return self.decorated.status
