@@ -2,6 +2,7 @@
 
 wheelnav up [--profile sim|hardware]     the whole fleet around a local router
 wheelnav mission SCENARIO.yaml           one mission, with a report
+wheelnav go PLACE [--wait] | cancel | status   the mission API on a live fleet
 wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
 wheelnav compose [--check]               docker-compose.yml from the fleet definition
 wheelnav bench planner [--json]          performance figures against a named peer
@@ -25,11 +26,13 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     from services.launcher import cli as launcher_cli
     from services.mission import cli as mission_cli
+    from services.navigator import cli as navigator_cli
     from services.tools import bench_cli
     from services.tools import cli as tools_cli
 
     launcher_cli.add_commands(sub)
     mission_cli.add_commands(sub)
+    navigator_cli.add_commands(sub)
     tools_cli.add_commands(sub)
     tools_cli.add_tree_command(sub)
     bench_cli.add_commands(sub)

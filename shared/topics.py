@@ -64,7 +64,7 @@ TOPICS: tuple[Topic, ...] = (
         m.Odometry,
         "pub",
         "sim / chair driver",
-        "localisation",
+        "localisation, controller, navigator",
         "wheel odometry, 50 Hz",
     ),
     Topic(

@@ -199,7 +199,7 @@ class Navigator:
         self._tree_sent_at = -1e9
         self._last_sent_at = -1e9
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
-        for key in ("goal", "place", "failure", "phase", "route", "blocked"):
+        for key in ("goal", "place", "failure", "phase", "route", "blocked", "action"):
             self.bb.register_key(key, access=Access.WRITE)
         self.stage = "plan"
 
@@ -316,6 +316,7 @@ class Navigator:
 
     def _set(self, state: str, **fields) -> None:
         s = self.status
+        self.bb.action = fields.get("action", "")
         self.status = NavStatus(
             self.fleet.now(),
             s.goal_id,

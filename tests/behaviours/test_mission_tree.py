@@ -508,3 +508,23 @@ def test_a_silent_controller_is_unsafe() -> None:
     fleet.t = 2.0
     tree.tick()
     assert fleet.events == [("safety_stop", "controller_silent")]
+
+
+def test_busy_lift_times_out_and_is_named_for_another_one() -> None:
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(LIFT_ROUTE, fleet, lift_timeout_s=30.0)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    fleet.arrive()
+    fleet.lifts["lift_a"] = lift_at("1", session="another-chair")
+    for t in range(1, 32):  # waiting for the car from t = 1 s
+        fleet.t = float(t)
+        tree.tick()
+        assert tree.root.status == Status.RUNNING
+    fleet.t = 31.5
+    tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert bb.blocked == "lift_a"  # the navigator re-plans with the other lift
+    assert bb.failure == "WaitForLift lift_a at 1: timed out after 30 s"

@@ -102,6 +102,20 @@ def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
         alive = wheelnav("topic", "list", "--duration", "1", "--connect", endpoint)
         for name in ("sim", "planner", "controller", "navigator", "localisation"):
             assert f"wheelnav/chair1/alive/{name}" in alive.stdout, name
+
+        # the mission API from a terminal: start, watch, cancel
+        go = wheelnav("go", "room_b", "--connect", endpoint)
+        assert go.returncode == 0 and "goal cli-" in go.stdout, go.stderr
+        deadline = time.monotonic() + 30
+        status = ""
+        while time.monotonic() < deadline and "Leg 0 (1/3)" not in status:
+            status = wheelnav("status", "--connect", endpoint).stdout
+        assert ": running, Leg 0 (1/3), phase follow" in status, status
+        assert wheelnav("cancel", "--connect", endpoint).returncode == 0
+        status = wheelnav("status", "--follow", "--duration", "2", "--connect", endpoint).stdout
+        assert ": cancelled" in status and "cancelled by request" in status, status
+        bad = wheelnav("go", "--connect", endpoint)
+        assert bad.returncode == 2 and "give a place or --pose" in bad.stdout
     finally:
         up.send_signal(signal.SIGINT)
         code = up.wait(timeout=30)
