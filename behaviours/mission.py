@@ -208,6 +208,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
     else:
         wait = WaitForDoorOpen(cp.id, centre, nav.door_scans)
     through = DriveThrough(
+        f"Pass {cp.id}",
         f"{route_id}.door.{cp.id}",
         "pass",
         cp.floor,
@@ -247,6 +248,7 @@ def _elevator_steps(
     door = (cp.centre.x, cp.centre.y) if cp.centre else None
     timeout = _pass_timeout(cp.pass_distance_m, p.door_speed)
     drive_in = DriveThrough(
+        f"Drive into {cp.id}",
         f"{route_id}.lift.{cp.id}.in",
         "enter",
         cp.floor,
@@ -258,6 +260,7 @@ def _elevator_steps(
         overrun_m=0.0,
     )
     back_out = DriveThrough(
+        f"Back out of {cp.id}",
         f"{route_id}.lift.{cp.id}.out",
         "exit",
         cp.to_floor,

@@ -240,6 +240,7 @@ class DriveThrough(FollowPath):
     def __init__(
         self,
         name: str,
+        path_id: str,
         phase: str,
         floor: str,
         start: tuple[float, float],
@@ -260,7 +261,7 @@ class DriveThrough(FollowPath):
         n = max(2, int(np.ceil((length + overrun_m) / 0.25)) + 1)
         v = np.full(n, speed)
         v[-1] = 0.0
-        path = Path(0.0, name, floor, np.linspace(a, far, n), v, reverse=reverse, precise=True)
+        path = Path(0.0, path_id, floor, np.linspace(a, far, n), v, reverse=reverse, precise=True)
         super().__init__(path, name, phase)
         self.end = (float(b[0]), float(b[1]))
         self.door_xy = door_xy

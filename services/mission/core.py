@@ -19,7 +19,17 @@ from shared.config import ConfigError, FleetConfig
 from shared.messages import NavStatus, Pose2D, SimStatus
 from shared.site import load_site
 
-SCENARIO_KEYS = {"name", "site", "seed", "time_limit_s", "start", "goal", "config", "description"}
+SCENARIO_KEYS = {
+    "name",
+    "site",
+    "seed",
+    "time_limit_s",
+    "start",
+    "goal",
+    "config",
+    "description",
+    "expect",
+}
 TERMINAL = ("succeeded", "failed", "cancelled")
 
 
@@ -33,6 +43,7 @@ class Scenario:
     place: str
     time_limit_s: float
     path: Path
+    expect: str = "success"  # or "failure": the scenario shows a safe stop
 
 
 def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
@@ -93,8 +104,12 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     limit = data.get("time_limit_s", 300.0)
     if not isinstance(limit, int | float) or limit <= 0:
         raise ConfigError(f"{path}: time_limit_s: must be > 0, got {limit!r}")
+    expect = data.get("expect", "success")
+    if expect not in ("success", "failure"):
+        raise ConfigError(f"{path}: expect: must be success or failure, got {expect!r}")
     load_site(site)  # a missing or malformed site fails here, in one line, not in 5 services
-    return Scenario(str(data.get("name", path.stem)), cfg, goal, place, float(limit), path)
+    name = str(data.get("name", path.stem))
+    return Scenario(name, cfg, goal, place, float(limit), path, expect)
 
 
 @dataclass
