@@ -7,6 +7,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from services.launcher.node import open_router
 from services.mission.node import free_port
@@ -14,6 +15,11 @@ from shared.transport import Bus
 
 ROOT = Path(__file__).resolve().parents[1]
 PYTHON = sys.executable
+
+# Property tests draw the same examples on every run (reproducible CI); derandomize also
+# turns the example database off, so a found failure belongs in an @example.
+settings.register_profile("wheelnav", derandomize=True)
+settings.load_profile("wheelnav")
 
 
 @pytest.fixture

@@ -35,6 +35,10 @@ then checked by a geometric door test.
      table, a pillar), unless it is a partition at most ``THIN_WALL_M`` thick running on
      along the door line (the wall between two doors).
    A cut narrower than ``min_door_m`` is **blocked** (no edge); any other cut is **open**.
+   Only cuts spanned by a chord of at most ``max_door_m + WIDEN_M`` within ``_NEAR_M`` of
+   their saddle are measured (the others are open space): near it, not only through it,
+   since the saddle can be the free cell beside a wall a cell thick (a wide door flush
+   with a thick wall ties the clearance), from where slanted rays slip past the jambs.
 5. Rooms: open cuts join their basins, from the highest saddle down, except where that
    would join two basins a doorway separates (the door test is the stronger evidence); a
    room under ``min_room_m2`` joins the neighbour across its widest passable cut (or is
@@ -658,7 +662,13 @@ def segment_rooms(
     )
     if n_cuts:
         cap = (max_door_m + WIDEN_M) / resolution + 2.0
-        _, geom.width = _narrowest(occ, cuts.saddle, cap)
+        # The cut's width is taken next to its saddle, as in _measure: on a clearance tie
+        # (a wide door flush with a thick wall, in a wall a cell thick) the saddle can be
+        # the cell beside the wall, and from there every slanted ray slips past a jamb's
+        # end, so the saddle itself has no chord within reach.
+        reach = max(2, int(np.ceil(_NEAR_M / resolution)))
+        near = _nearby_narrowest(occ, cuts.saddle, reach, min_door_m / resolution - 1.0, cap)
+        _, geom.width = _narrowest(occ, near, cap)
         # Blocked: even the widest point of the cut is narrower than a door.
         kind[(2 * cuts.height - 1) < min_door_m / resolution - 1.0] = _BLOCKED
         cand = np.flatnonzero((kind == _OPEN) & np.isfinite(geom.width))
