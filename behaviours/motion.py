@@ -15,6 +15,9 @@ from py_trees.common import Access, Status
 from behaviours.fleet import FleetBehaviour
 from shared.messages import DoorMode, Path
 
+MOVING_M_S = 0.01  # odometry speeds above these: the chair is still moving
+MOVING_RAD_S = 0.02
+
 
 def _wrap(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
@@ -102,8 +105,9 @@ class DockAt(FleetBehaviour):
     result on the pose estimate. SUCCESS when the controller reports arrival and the pose
     is within ``position_tolerance_m`` and ``heading_tolerance_deg``; otherwise it sends
     the manoeuvre again, up to ``attempts`` times in all. FAILURE when the attempts run
-    out, or when the error has not shrunk for ``stall_s`` (the convergence check: a
-    chair that cannot get closer should not keep trying until the time limit).
+    out, or when the chair has stood still for ``stall_s`` short of the goal (the
+    convergence check, on wheel odometry: a chair that cannot get closer should not
+    keep trying until the time limit).
 
     ``heading`` None means "face ``face`` (x, y) from wherever the chair stands": the
     seed's Phase 1 turn towards the exit pose, on the spot. The final errors go to
@@ -136,7 +140,6 @@ class DockAt(FleetBehaviour):
         self.bb.register_key("correction", access=Access.WRITE)
         self._goal: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._tries = 0
-        self._best = math.inf
         self._best_at = 0.0
         self._started = 0.0
         self._last_update = 0.0
@@ -145,7 +148,7 @@ class DockAt(FleetBehaviour):
     def initialise(self) -> None:
         self.bb.phase = self.phase
         self._tries = 0
-        self._best, self._started = math.inf, self.fleet.now()
+        self._started = self.fleet.now()
         self._last_update = self._started
         x, y = self.target
         heading = self.heading
@@ -184,9 +187,9 @@ class DockAt(FleetBehaviour):
         if now - self._last_update > 1.0:  # not ticked for a while (a safety hold)
             self._best_at = now
         self._last_update = now
-        score = dist + 0.2 * dth  # 0.2 m per radian: turning on the spot counts as progress
-        if score < self._best - 0.005:
-            self._best, self._best_at = score, now
+        odom = self.fleet.odometry()
+        if odom is not None and (abs(odom.v) > MOVING_M_S or abs(odom.w) > MOVING_RAD_S):
+            self._best_at = now  # still working at it
         within = dist <= self.position_tolerance_m and dth <= self.heading_tolerance
         self.feedback_message = (
             f"error {dist:.3f} m, {math.degrees(dth):.1f} deg (attempt {self._tries})"
@@ -212,8 +215,8 @@ class DockAt(FleetBehaviour):
             return Status.RUNNING
         if now - self._best_at > self.stall_s:
             return self.fail(
-                f"not converging: error {dist:.3f} m, {math.degrees(dth):.1f} deg "
-                f"has not shrunk for {self.stall_s:g} s"
+                f"not converging: stopped {dist:.3f} m, {math.degrees(dth):.1f} deg off "
+                f"for {self.stall_s:g} s"
             )
         return Status.RUNNING
 

@@ -201,6 +201,7 @@ class ControllerConfig:
     dock_tolerance_m: float = field(default=0.05, metadata=check(_positive))
     dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
     dock_speed: float = field(default=0.15, metadata=check(_positive))
+    dock_turn_rate: float = field(default=0.5, metadata=check(_positive))
 
 
 @dataclass
@@ -220,7 +221,7 @@ class NavigatorConfig:
     heading_tolerance_deg: float = field(default=5.0, metadata=check(_positive))
     turn_tolerance_deg: float = field(default=2.0, metadata=check(_positive))
     correction_speed: float = field(default=0.15, metadata=check(_positive))
-    correction_timeout_s: float = field(default=15.0, metadata=check(_positive))
+    correction_timeout_s: float = field(default=20.0, metadata=check(_positive))
     correction_attempts: int = field(default=3, metadata=check(_positive))
     correction_stall_s: float = field(default=4.0, metadata=check(_positive))
     correction_reach_m: float = field(default=1.0, metadata=check(_non_negative))

@@ -6,11 +6,15 @@ the same manoeuvre is damped: speeds fall in proportion to the remaining error (
 floor so the chair does not creep), so it stops without overshoot on a chair with motor
 lag. Stages:
 
-* ``move``: turn towards the target (away from it when it lies behind and within
-  ``reverse_reach_m``: the chair backs up instead of turning round), then drive while
-  steering. Within ``near_m`` only the error along the heading is driven out, so a
-  centimetre of noise cannot make the chair turn on the spot.
-* ``turn``: turn on the spot to the goal heading.
+* ``move`` (when starting further than ``near_m``, until within the tolerance): turn
+  towards the target, or away from it to back up to it when it lies within
+  ``reverse_reach_m`` and backing up leaves the chair nearer the goal heading (a target
+  behind a chair facing the door; a pose across a corridor facing the other way), then
+  drive while steering.
+* ``final``: turn on the spot to the goal heading, then drive out the error along it.
+  What is left across the heading is under the tolerance (or ``near_m``, when the
+  manoeuvre started that close): turning away to remove it would cost two more turns
+  for a few centimetres that the pass's pure pursuit takes out anyway.
 
 Idle motion for automatic doors (small moves back and forth) uses the same manoeuvre with
 a low speed cap. Pure: the tracker hands in poses and gets commands.
@@ -26,7 +30,8 @@ from services.controller.core import Command, _wrap
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
 MIN_SPEED = 0.03  # m/s: below this the chair barely moves against its motor lag
 MIN_TURN = 0.08  # rad/s
-LEAVE_FACTOR = 2.0  # the turn stage goes back to moving if the error grows past this
+LEAVE_FACTOR = 2.0  # the final stage starts over if the error grows past this x near_m
+SWITCH_RAD = math.radians(20)  # hysteresis of the forwards / backwards choice
 
 
 @dataclass
@@ -36,10 +41,10 @@ class DockLimits:
     position_tolerance_m: float = 0.05
     heading_tolerance_rad: float = math.radians(1.0)
     max_speed: float = 0.15
-    max_turn: float = 0.3
+    max_turn: float = 0.5
     speed_gain: float = 0.8  # 1/s: v = gain * remaining distance
-    turn_gain: float = 1.5  # 1/s: w = gain * heading error
-    near_m: float = 0.12
+    turn_gain: float = 2.0  # 1/s: w = gain * heading error
+    near_m: float = 0.1
     reverse_reach_m: float = 1.0
 
 
@@ -49,9 +54,10 @@ class Docker:
     def __init__(self, limits: DockLimits | None = None) -> None:
         self.limits = limits or DockLimits()
         self.goal: tuple[float, float, float] | None = None
-        self.stage = "move"
+        self.stage = "start"
         self._start_error = 0.0
         self._arrived = False
+        self._backwards: bool | None = None
 
     @property
     def active(self) -> bool:
@@ -60,9 +66,10 @@ class Docker:
     def set_goal(self, x: float, y: float, heading: float, max_speed: float | None = None) -> None:
         """Dock at (x, y) facing ``heading``; ``max_speed`` caps the speed (idle motion)."""
         self.goal = (x, y, heading)
-        self.stage = "move"
+        self.stage = "start"
         self._start_error = -1.0
         self._arrived = False
+        self._backwards: bool | None = None
         self._cap = self.limits.max_speed if max_speed is None else max_speed
 
     def clear(self) -> None:
@@ -84,39 +91,64 @@ class Docker:
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         if not pose_fresh:
             return Command(0.0, 0.0, "stale", progress, dist, 0.0)
-        if self.stage == "turn" and dist > LEAVE_FACTOR * lim.position_tolerance_m:
-            self.stage = "move"
+        if self.stage == "final" and dist > LEAVE_FACTOR * lim.near_m:
+            self.stage = "move"  # pushed away: start over
+        if self.stage == "start":  # close already: no need to drive towards it first
+            self.stage = "final" if dist <= lim.near_m else "move"
         if self.stage == "move":
-            v, w, done = self._move(ex, ey, dist, theta)
-            if not done:
+            if dist > lim.position_tolerance_m:
+                v, w = self._move(ex, ey, dist, theta)
                 return Command(v, w, "following", progress, dist, 0.0)
-            self.stage = "turn"
-        if abs(heading_err) <= lim.heading_tolerance_rad:
+            self.stage = "final"
+        v, w, done = self._final(ex, ey, heading_err, gth)
+        if done:
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
-        rate = max(MIN_TURN, min(lim.max_turn, lim.turn_gain * abs(heading_err)))
-        w = math.copysign(rate, heading_err)
-        return Command(0.0, w, "following", progress, dist, 0.0)
+        return Command(v, w, "following", progress, dist, 0.0)
 
-    def _move(self, ex: float, ey: float, dist: float, theta: float) -> tuple[float, float, bool]:
-        """(v, w, done) of the move stage."""
+    def _move(self, ex: float, ey: float, dist: float, theta: float) -> tuple[float, float]:
+        """(v, w) of the move stage: face the target (or away from it), then drive."""
         lim = self.limits
-        hx, hy = math.cos(theta), math.sin(theta)
-        along = ex * hx + ey * hy
-        if dist <= lim.near_m:  # close: drive out the error along the heading only
-            if abs(along) <= lim.position_tolerance_m:
-                return 0.0, 0.0, True
-            v = math.copysign(self._speed(abs(along)), along)
-            return v, 0.0, False
-        bearing = _wrap(math.atan2(ey, ex) - theta)
-        backwards = abs(bearing) > math.pi / 2 and dist <= lim.reverse_reach_m
-        if backwards:
-            bearing = _wrap(bearing + math.pi)
+        backwards = self._backwards_to(math.atan2(ey, ex), dist)
+        bearing = _wrap(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
         w = max(-lim.max_turn, min(lim.max_turn, lim.turn_gain * bearing))
-        if abs(bearing) > ALIGN_RAD:  # face the target (or away from it) first
-            return 0.0, math.copysign(max(MIN_TURN, abs(w)), w), False
+        if abs(bearing) > ALIGN_RAD:
+            return 0.0, math.copysign(max(MIN_TURN, abs(w)), w)
         v = self._speed(dist) * math.cos(bearing)
-        return (-v if backwards else v), w, False
+        return (-v if backwards else v), w
+
+    def _final(
+        self, ex: float, ey: float, heading_err: float, goal_heading: float
+    ) -> tuple[float, float, bool]:
+        """(v, w, done) of the final stage: turn to the goal heading on the spot, then
+        drive out the error along it (the error across it, under ``near_m``, stays)."""
+        lim = self.limits
+        turn = lim.turn_gain * abs(heading_err)
+        w = math.copysign(max(MIN_TURN, min(lim.max_turn, turn)), heading_err)
+        if abs(heading_err) > max(lim.heading_tolerance_rad, ALIGN_RAD / 2):
+            return 0.0, w, False
+        along = ex * math.cos(goal_heading) + ey * math.sin(goal_heading)
+        if abs(along) > lim.position_tolerance_m:
+            return math.copysign(self._speed(abs(along)), along), lim.turn_gain * heading_err, False
+        if abs(heading_err) > lim.heading_tolerance_rad:
+            return 0.0, w, False
+        return 0.0, 0.0, True
+
+    def _backwards_to(self, direction: float, dist: float) -> bool:
+        """Drive backwards to a target in ``direction``? Within ``reverse_reach_m``, the
+        way that leaves the chair closer to the goal heading (a target behind a chair
+        facing the door: back up; a pose across a corridor facing the other way: turn
+        first, then back into it, never nose up to the wall or the car door in front);
+        keeps its choice unless the other way is better by ``SWITCH_RAD``."""
+        if dist > self.limits.reverse_reach_m:
+            self._backwards = False
+            return False
+        goal = self.goal[2]
+        fwd = abs(_wrap(direction - goal))
+        rev = abs(_wrap(direction + math.pi - goal))
+        if self._backwards is None or abs(fwd - rev) > SWITCH_RAD:
+            self._backwards = rev < fwd
+        return self._backwards
 
     def _speed(self, remaining: float) -> float:
         return min(self._cap, max(MIN_SPEED, self.limits.speed_gain * remaining))

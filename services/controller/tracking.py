@@ -36,7 +36,7 @@ class Tracker:
                 position_tolerance_m=cfg.dock_tolerance_m,
                 heading_tolerance_rad=math.radians(cfg.dock_heading_tolerance_deg),
                 max_speed=min(cfg.dock_speed, robot.max_speed),
-                max_turn=min(0.3, robot.max_turn_rate),
+                max_turn=min(cfg.dock_turn_rate, robot.max_turn_rate),
             )
         )
         self.mpc: SamplingMPC | None = None

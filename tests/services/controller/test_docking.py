@@ -81,3 +81,19 @@ def test_stale_pose_and_no_goal_give_zero() -> None:
     docker.set_goal(1.0, 0.0, 0.0)
     cmd = docker.step(0.0, 0.0, 0.0, pose_fresh=False)
     assert (cmd.v, cmd.w, cmd.state) == (0.0, 0.0, "stale")
+
+
+def test_a_pose_across_the_corridor_facing_the_other_way_turns_first_then_backs_up() -> None:
+    # facing a closed car door 1.5 m ahead; the goal is 0.5 m nearer it, facing away
+    docker = Docker(DockLimits())
+    docker.set_goal(0.0, 0.5, -math.pi / 2)
+    first = docker.step(0.0, 0.0, math.pi / 2)
+    assert first.v == 0.0 and abs(first.w) > 0  # turns on the spot first
+    x, y, th, t, _ = run(docker, 0.0, 0.0, math.pi / 2)
+    assert math.hypot(x, y - 0.5) <= 0.05 + 0.01
+    assert abs(math.degrees(_wrap(th + math.pi / 2))) <= 1.5
+    assert t < 20.0
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
