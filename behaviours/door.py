@@ -11,7 +11,7 @@ import math
 
 from py_trees.common import Status
 
-from behaviours.fleet import FleetBehaviour
+from behaviours.fleet import FleetBehaviour, OpenInScans
 from behaviours.motion import dock_path
 from shared.messages import DoorMode
 
@@ -52,30 +52,25 @@ class WaitForDoorOpen(FleetBehaviour):
         super().__init__(f"WaitForDoorOpen {door_id}")
         self.door_id = door_id
         self.centre = centre
-        self.scans = scans
         self.stop_on_start = stop_on_start
-        self._agree = 0
-        self._last_scan = -1.0
+        self.lidar = OpenInScans(scans)
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
-        self._agree, self._last_scan = 0, -1.0
+        self.lidar.reset()
         if self.stop_on_start:
             self.fleet.stop()
 
     def update(self) -> Status:
         mode = self.fleet.door_mode(self.door_id)
-        if self.centre is not None:
-            stamp, seen = self.fleet.lidar_door_state(*self.centre)
-            if stamp > self._last_scan:
-                self._last_scan = stamp
-                self._agree = self._agree + 1 if seen == "open" else 0
-        lidar_ok = self.centre is None or self._agree >= self.scans
+        lidar_ok = self.centre is None or self.lidar.update(
+            *self.fleet.lidar_door_state(*self.centre)
+        )
         if mode == DoorMode.OPEN and lidar_ok:
             self.feedback_message = "open"
             return Status.SUCCESS
         names = {0: "closed", 1: "moving", 3: "offline", 4: "unknown"}
-        seen = f", LiDAR open in {self._agree}/{self.scans} scans" if self.centre else ""
+        seen = f", {self.lidar}" if self.centre else ""
         self.feedback_message = f"door {names.get(mode, 'not reported')}{seen}, waiting"
         return Status.RUNNING
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from behaviours.fleet import FleetBehaviour
+from behaviours.fleet import FleetBehaviour, OpenInScans
 from shared.messages import LiftDoor, LiftMotion
 
 MODE_OFFLINE = 4  # rmf_lift_msgs LiftState.MODE_OFFLINE
@@ -62,23 +62,17 @@ class WaitForLift(_LiftBehaviour):
         self.floor = floor
         self.phase = phase
         self.door_xy = door_xy
-        self.scans = scans
-        self._agree = 0
-        self._last_scan = -1.0
+        self.lidar = OpenInScans(scans)
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
-        self._agree, self._last_scan = 0, -1.0
+        self.lidar.reset()
 
     def _lidar_open(self) -> bool:
         """The car door seen open (ahead or behind the chair) in ``scans`` new scans."""
         if self.door_xy is None:
             return True
-        stamp, seen = self.fleet.lidar_door_state(*self.door_xy)
-        if stamp > self._last_scan:
-            self._last_scan = stamp
-            self._agree = self._agree + 1 if seen == "open" else 0
-        return self._agree >= self.scans
+        return self.lidar.update(*self.fleet.lidar_door_state(*self.door_xy))
 
     def update(self) -> Status:
         state = self.fleet.lift_state(self.lift_id)
@@ -103,7 +97,7 @@ class WaitForLift(_LiftBehaviour):
         if ready and seen:
             self.feedback_message = "doors open (lift state and LiDAR)"
             return Status.SUCCESS
-        lidar = f", LiDAR open in {self._agree}/{self.scans} scans" if self.door_xy else ""
+        lidar = f", {self.lidar}" if self.door_xy else ""
         self.feedback_message = f"car at {state.current_floor}, doors {state.door_state}{lidar}"
         return Status.RUNNING
 

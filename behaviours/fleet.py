@@ -112,3 +112,29 @@ class FleetBehaviour(py_trees.behaviour.Behaviour):
         self.feedback_message = reason
         self.bb.failure = f"{self.name}: {reason}"
         return Status.FAILURE
+
+
+class OpenInScans:
+    """Counts consecutive new scans in which the LiDAR saw a doorway open.
+
+    A scan counts once (by its stamp); "closed" and "unknown" both start the count
+    again, so "open" needs ``needed`` scans in a row.
+    """
+
+    def __init__(self, needed: int) -> None:
+        self.needed = needed
+        self.agree = 0
+        self._last = -1.0
+
+    def reset(self) -> None:
+        self.agree, self._last = 0, -1.0
+
+    def update(self, stamp: float, seen: str) -> bool:
+        """Take the latest (stamp, verdict); True once ``needed`` scans in a row said open."""
+        if stamp > self._last:
+            self._last = stamp
+            self.agree = self.agree + 1 if seen == "open" else 0
+        return self.agree >= self.needed
+
+    def __str__(self) -> str:
+        return f"LiDAR open in {self.agree}/{self.needed} scans"

@@ -12,21 +12,15 @@ import contextlib
 import threading
 import time
 
-from shared.config import TransportConfig
+from services.tools.cli import add_connect_argument, client_bus
 from shared.messages import NavGoal, NavStatus, Pose2D
 from shared.topics import Keys
-from shared.transport import Bus, open_session
 
 TERMINAL = ("succeeded", "failed", "cancelled")
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--connect",
-        metavar="ENDPOINT",
-        default="tcp/127.0.0.1:7447",
-        help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local)",
-    )
+    add_connect_argument(p)
     p.add_argument("--robot", default="chair1")
 
 
@@ -61,10 +55,6 @@ def format_status(s: NavStatus) -> str:
     return f"{line} - {s.reason}" if s.reason else line
 
 
-def _bus(args: argparse.Namespace) -> Bus:
-    return Bus(open_session(TransportConfig(mode="client", connect=[args.connect])), "cli")
-
-
 def run_go(args: argparse.Namespace) -> int:
     if bool(args.place) == bool(args.pose):
         print("wheelnav go: give a place or --pose X Y THETA (not both)")
@@ -72,7 +62,7 @@ def run_go(args: argparse.Namespace) -> int:
     keys = Keys(args.robot)
     goal = Pose2D(*args.pose, args.floor) if args.pose else None
     goal_id = f"cli-{int(time.time() * 1000)}"
-    bus = _bus(args)
+    bus = client_bus(args, "cli")
     done = threading.Event()
     result = {"state": ""}
     last = [""]
@@ -102,7 +92,7 @@ def run_go(args: argparse.Namespace) -> int:
 
 
 def run_cancel(args: argparse.Namespace) -> int:
-    bus = _bus(args)
+    bus = client_bus(args, "cli")
     time.sleep(0.3)
     bus.publish(Keys(args.robot).nav_goal, NavGoal(0.0, "cancel", cancel=True))
     print("cancel sent")
@@ -111,7 +101,7 @@ def run_cancel(args: argparse.Namespace) -> int:
 
 
 def run_status(args: argparse.Namespace) -> int:
-    bus = _bus(args)
+    bus = client_bus(args, "cli")
     got = threading.Event()
     last = [""]
 

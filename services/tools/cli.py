@@ -28,13 +28,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     tsub = p.add_subparsers(dest="topic_command", required=True)
 
-    def common(q: argparse.ArgumentParser) -> None:
-        q.add_argument(
-            "--connect",
-            metavar="ENDPOINT",
-            default="tcp/127.0.0.1:7447",
-            help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local)",
-        )
+    common = add_connect_argument
 
     ls = tsub.add_parser("list", help="keys heard on the bus, with type and rate")
     common(ls)
@@ -61,12 +55,7 @@ def add_tree_command(sub: argparse._SubParsersAction) -> None:
         help="show the navigator's live behaviour tree",
         description="Show the navigator's behaviour tree as it runs.",
     )
-    t.add_argument(
-        "--connect",
-        metavar="ENDPOINT",
-        default="tcp/127.0.0.1:7447",
-        help="router to reach (default: local)",
-    )
+    add_connect_argument(t)
     t.add_argument("--robot", default="chair1")
     t.add_argument("--once", action="store_true", help="print one snapshot and exit")
     t.add_argument("--duration", type=float, default=0.0, help="stop after S seconds")
@@ -92,8 +81,23 @@ def run_tree(args: argparse.Namespace) -> int:
     return 0 if shown[0] else 1
 
 
+def add_connect_argument(p: argparse.ArgumentParser) -> None:
+    """``--connect ENDPOINT``: the router a terminal command reaches (local by default)."""
+    p.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        default="tcp/127.0.0.1:7447",
+        help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local)",
+    )
+
+
+def client_bus(args: argparse.Namespace, name: str = "topic") -> Bus:
+    """A client session on the router given by ``--connect``."""
+    return Bus(open_session(TransportConfig(mode="client", connect=[args.connect])), name)
+
+
 def _bus(args: argparse.Namespace) -> Bus:
-    return Bus(open_session(TransportConfig(mode="client", connect=[args.connect])), "topic")
+    return client_bus(args)
 
 
 def _wait(stop: threading.Event, duration: float) -> None:
