@@ -13,7 +13,16 @@ import argparse
 import rerun as rr
 
 from services.viz import viz
-from shared.messages import NavStatus, Odometry, Path, PointCloud, PoseEstimate, Twist
+from shared.messages import (
+    NavStatus,
+    Odometry,
+    Path,
+    PointCloud,
+    PoseEstimate,
+    RouteReply,
+    TreeSnapshot,
+    Twist,
+)
 from shared.service import Service
 from shared.site import SiteError, load_site
 
@@ -66,6 +75,12 @@ def main(argv: list[str] | None = None) -> None:
             svc.declare("subscribes", keys.path), Path, lambda m: viz.log_path(m, clock["t"])
         )
         bus.subscribe(svc.declare("subscribes", keys.nav_status), NavStatus, viz.log_nav_status)
+        bus.subscribe(svc.declare("subscribes", keys.tree), TreeSnapshot, viz.log_tree)
+        bus.subscribe(
+            svc.declare("subscribes", keys.nav_route),
+            RouteReply,
+            lambda m: viz.log_route(m, clock["t"]),
+        )
         svc.wait()
         rr.disconnect()
 

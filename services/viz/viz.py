@@ -8,7 +8,10 @@ Entity tree (the contract between logging and the viewer layout)::
     world/chair/truth         ground truth (simulation only)
     world/chair/scan          LiDAR points, in the world frame
     world/path                the path being followed
+    world/route/legs          the route being driven (after each (re)plan)
+    world/route/checkpoints   its doors and lifts: approach poses, labelled
     status/nav                navigator state as text log
+    status/tree               the live behaviour tree (statuses and feedback)
     plots/speed               commanded and measured speed
 
 Time is the data's own: the ``sim`` timeline is set from each message's stamp.
@@ -21,10 +24,21 @@ import math
 import numpy as np
 import rerun as rr
 
-from shared.messages import NavStatus, Odometry, Path, PointCloud, PoseEstimate, Twist
+from services.tools.core import render_tree
+from shared.messages import (
+    NavStatus,
+    Odometry,
+    Path,
+    PointCloud,
+    PoseEstimate,
+    RouteReply,
+    TreeSnapshot,
+    Twist,
+)
 from shared.site import Floor, Site
 
 CHAIR_COLOUR = [30, 144, 255]
+ROUTE_COLOUR = [60, 179, 113]
 TRUTH_COLOUR = [120, 120, 120]
 PATH_COLOUR = [255, 140, 0]
 SCAN_COLOUR = [220, 20, 60]
@@ -110,8 +124,34 @@ def log_path(msg: Path, stamp: float) -> None:
     rr.log("world/path", rr.LineStrips2D([msg.waypoints], colors=[PATH_COLOUR], radii=0.03))
 
 
+def log_route(msg: RouteReply, stamp: float) -> None:
+    """The route's legs and its checkpoints' approach poses (labelled with their ids)."""
+    set_time(stamp)
+    legs = [leg.waypoints for leg in msg.legs if len(leg.waypoints) > 1]
+    if legs:
+        rr.log("world/route/legs", rr.LineStrips2D(legs, colors=[ROUTE_COLOUR], radii=0.02))
+    if msg.checkpoints:
+        rr.log(
+            "world/route/checkpoints",
+            rr.Points2D(
+                [[c.approach.x, c.approach.y] for c in msg.checkpoints],
+                radii=0.12,
+                colors=[ROUTE_COLOUR],
+                labels=[f"{c.kind} {c.id}" for c in msg.checkpoints],
+            ),
+        )
+
+
+def log_tree(msg: TreeSnapshot) -> None:
+    """The behaviour tree as text, as ``wheelnav tree`` draws it."""
+    set_time(msg.stamp)
+    text = f"```\n{render_tree(msg)}\n```"
+    rr.log("status/tree", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
+
+
 def log_nav_status(msg: NavStatus) -> None:
     set_time(msg.stamp)
-    text = f"{msg.state} {msg.phase} {100 * msg.progress:.0f} % {msg.reason}".strip()
+    parts = [msg.state, msg.action, msg.phase, f"{100 * msg.progress:.0f} %", msg.reason]
+    text = " ".join(p for p in parts if p)
     level = rr.TextLogLevel.ERROR if msg.state == "failed" else rr.TextLogLevel.INFO
     rr.log("status/nav", rr.TextLog(text, level=level))

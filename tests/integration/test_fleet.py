@@ -196,7 +196,15 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
         text=True,
         timeout=60,
     ).stdout
-    for entity in ("world/map", "world/path", "world/chair/pose", "world/chair/scan", "status/nav"):
+    for entity in (
+        "world/map",
+        "world/path",
+        "world/chair/pose",
+        "world/chair/scan",
+        "world/route/checkpoints",
+        "status/nav",
+        "status/tree",
+    ):
         assert entity in shown, entity
 
 
