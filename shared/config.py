@@ -258,6 +258,7 @@ class LiftBehaviour:
 
     start_floor: str = ""
     fault: str = field(default="", metadata=_one_of("", "out_of_service", "door_slow"))
+    busy_until_s: float = field(default=0.0, metadata=check(_non_negative))
 
 
 @dataclass

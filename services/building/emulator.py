@@ -16,8 +16,18 @@ import numpy as np
 from services.building.doors import DoorSim, DoorTiming
 from services.building.lifts import LiftSim
 from shared.config import BuildingConfig, DoorBehaviour, LiftBehaviour
-from shared.messages import BuildingBodies, DoorRequest, DoorState, LiftRequest, LiftState
+from shared.messages import (
+    BuildingBodies,
+    DoorRequest,
+    DoorState,
+    LiftDoor,
+    LiftRequest,
+    LiftRequestType,
+    LiftState,
+)
 from shared.site import Site
+
+OTHER_SESSION = "another-user"
 
 
 class Building:
@@ -48,12 +58,15 @@ class Building:
             )
         self.door_floor = {d.id: d.floor for d in site.doors}
         self.lifts: dict[str, LiftSim] = {}
+        self._busy: dict[str, float] = {}  # lift -> when the other user lets it go
         for lift in getattr(site, "elevators", []):
             b = cfg.lifts.get(lift.id, LiftBehaviour())
             floors = {f: site.floor(f).elevation for f in lift.floors}
-            self.lifts[lift.id] = LiftSim(
-                lift.id, floors, b.start_floor or lift.floors[0], fault=b.fault or None
-            )
+            start = b.start_floor or lift.floors[0]
+            self.lifts[lift.id] = LiftSim(lift.id, floors, start, fault=b.fault or None)
+            if b.busy_until_s > 0:  # someone else holds it, doors shut, from the start
+                self.lifts[lift.id].request(0.0, self._other(lift.id, start))
+                self._busy[lift.id] = b.busy_until_s
 
     def request_door(self, now: float, req: DoorRequest) -> bool:
         """Pass a door request on; False if no such door."""
@@ -80,7 +93,17 @@ class Building:
             near = math.hypot(x - cx, y - cy) <= self.cfg.sensor_range_m
             door.set_presence(now, near and abs(speed) > 0.02)
 
+    @staticmethod
+    def _other(lift_id: str, floor: str, end: bool = False) -> LiftRequest:
+        """A request of the other user of a busy lift (``building.lifts.<id>.busy_until_s``)."""
+        kind = LiftRequestType.END_SESSION if end else LiftRequestType.AGV_MODE
+        return LiftRequest(0.0, lift_id, OTHER_SESSION, kind, floor, LiftDoor.CLOSED)
+
     def update(self, now: float) -> None:
+        for name, until in list(self._busy.items()):
+            if now >= until:
+                self.lifts[name].request(now, self._other(name, "", end=True))
+                del self._busy[name]
         for door in self.doors.values():
             door.update(now)
         for lift in self.lifts.values():

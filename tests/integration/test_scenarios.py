@@ -65,6 +65,14 @@ def test_lift_out_of_service_uses_the_other_lift() -> None:
     assert "out of service" in fallbacks[0]["detail"]
 
 
+def test_busy_lift_is_given_up_after_its_timeout_and_the_other_one_used() -> None:
+    report, out = run("lift_busy")
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
+    assert report["fallbacks"] == ["avoiding lift_b: WaitForLift lift_b at 1: timed out after 30 s"]
+    lifts = [(c["id"], c["result"]) for c in report["checkpoints"] if c["kind"] == "elevator"]
+    assert lifts == [("lift_b", "abandoned"), ("lift_a", "passed")]
+
+
 def test_pedestrian_stepping_into_the_path_is_waited_for() -> None:
     report, out = run("pedestrian")
     assert report["success"], (report["reason"], out[-2000:])

@@ -7,7 +7,14 @@ import pytest
 from services.building.emulator import Building
 from shared.codec import decode, encode
 from shared.config import load
-from shared.messages import BuildingBodies, DoorMode, DoorRequest
+from shared.messages import (
+    BuildingBodies,
+    DoorMode,
+    DoorRequest,
+    LiftDoor,
+    LiftRequest,
+    LiftRequestType,
+)
 from shared.site import Door, load_site
 from tests.conftest import ROOT
 
@@ -72,3 +79,15 @@ def test_states_on_change_and_bodies_message() -> None:
 def test_config_for_an_unknown_door_is_refused() -> None:
     with pytest.raises(ValueError, match="building.doors.door_zz: no such door"):
         building("building.doors={door_zz: {start_open: true}}")
+
+
+def test_a_busy_lift_is_held_by_another_user_until_its_time() -> None:
+    site = load_site(ROOT / "sites" / "two_floors")
+    b = Building(site, load(None, ["building.lifts={lift_b: {busy_until_s: 20}}"]).building)
+    ours = LiftRequest(1.0, "lift_b", "chair1-g1", LiftRequestType.AGV_MODE, "1", LiftDoor.OPEN)
+    assert "busy" in b.request_lift(1.0, ours)
+    assert b.lifts["lift_b"].session_id == "another-user"
+    b.update(20.0)
+    assert b.lifts["lift_b"].session_id == ""
+    assert b.request_lift(20.5, ours) is None
+    assert b.lifts["lift_a"].session_id == ""  # the other lift was never busy
