@@ -163,6 +163,12 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
                         cfg.sim.lockstep_timeout_s,
                         timeouts,
                     )
+                    # in the report too: a run that went on without someone is not a
+                    # repeatable run, and should say so
+                    detail = f"tick {result.tick} stage {stage}: no answer from {', '.join(late)}"
+                    bus.publish(
+                        events_key, Event(stamp, NAME, "lockstep_timeout", detail, "warning")
+                    )
         if cfg.sim.realtime_factor > 0:
             ahead = stamp / cfg.sim.realtime_factor - (time.monotonic() - wall_start)
             if ahead > 0:

@@ -186,7 +186,13 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
     # still being tracked down (notes), so this allows one period and a centimetre.
     rrd = tmp_path / "demo.rrd"
     second = run_demo(str(rrd))
-    assert abs(first["sim_time_s"] - second["sim_time_s"]) <= 0.1 + 1e-9
+    slips = [
+        (e["t"], e["detail"])
+        for report in (first, second)
+        for e in report["events"]
+        if e["kind"] == "lockstep_timeout"
+    ]
+    assert abs(first["sim_time_s"] - second["sim_time_s"]) <= 0.1 + 1e-9, slips
     assert abs(first["path_length_m"] - second["path_length_m"]) <= 0.01
     assert abs(first["min_clearance_m"] - second["min_clearance_m"]) <= 0.01
     assert [p["name"] for p in first["phases"]] == [p["name"] for p in second["phases"]]
@@ -305,3 +311,14 @@ def test_killed_controller_stops_the_chair_and_is_restarted(fleet) -> None:
     assert sup.restarts("controller") == 1
     assert sup.pid("controller") not in (None, old_pid)
     assert "controller exited with code -9; restarting" in out.text()
+
+
+def test_lockstep_slips_are_reported(tmp_path) -> None:
+    # an impossible lockstep timeout: the simulator goes on without its participants, and
+    # the report must say so (a run like this is not repeatable)
+    out = Capture()
+    scenario = load_scenario(DEMO, ["sim.lockstep_timeout_s=0.0001"])
+    report = MissionRun(scenario, out=out, fleet_output=out).run()
+    slips = [e for e in report["events"] if e["kind"] == "lockstep_timeout"]
+    assert slips and slips[0]["source"] == "sim"
+    assert "no answer from" in slips[0]["detail"]
