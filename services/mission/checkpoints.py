@@ -46,6 +46,7 @@ class CheckpointLog:
     done: list[dict[str, Any]] = field(default_factory=list)
     _queue: list[_Track] = field(default_factory=list)
     _truth: tuple[float, float, float] | None = None
+    _history: dict[float, tuple[float, float, float]] = field(default_factory=dict)
     _phase: tuple[str, float] | None = None  # (name, start) of the head's running phase
 
     def on_route(self, checkpoints: list[Checkpoint], stamp: float = 0.0) -> None:
@@ -70,8 +71,9 @@ class CheckpointLog:
             name, start = self._phase
             if head is not None:
                 head.phases[name] = round(head.phases.get(name, 0.0) + stamp - start, 2)
-                if name == "correct" and self._truth is not None:
-                    self._corrected(head)
+                truth = self._truth_at(stamp)
+                if name == "correct" and truth is not None:
+                    self._corrected(head, truth)
             self._phase = None
         if ours and phase and self._phase is None:
             self._phase = (phase, stamp)
@@ -88,10 +90,16 @@ class CheckpointLog:
             or head.passed_s is not None
             or self._phase is None
             or self._phase[0] != "pass"
-            or self._truth is None
+            or self._truth_at(stamp) is None
         ):
             return
-        head.closing_at = (stamp, self._truth[0], self._truth[1])
+        x, y, _ = self._truth_at(stamp)
+        head.closing_at = (stamp, x, y)
+
+    def _truth_at(self, stamp: float) -> tuple[float, float, float] | None:
+        """The true pose at ``stamp`` (the tick a status or door state is about: they can
+        arrive after the next tick's truth, so "latest" would be a tick late at random)."""
+        return self._history.get(round(stamp, 6), self._truth)
 
     def rows(self, stamp: float) -> list[dict[str, Any]]:
         """The report's rows: the checkpoints done, and the one the mission ended at
@@ -102,8 +110,8 @@ class CheckpointLog:
         result = "abandoned" if head.passed_s is None else "passed"
         return [*self.done, self._row(head, stamp, result)]
 
-    def _corrected(self, t: _Track) -> None:
-        x, y, theta = self._truth
+    def _corrected(self, t: _Track, truth: tuple[float, float, float]) -> None:
+        x, y, theta = truth
         a = t.cp.approach
         t.position_error_m = math.hypot(x - a.x, y - a.y)
         dth = math.atan2(math.sin(theta - a.theta), math.cos(theta - a.theta))
@@ -114,6 +122,9 @@ class CheckpointLog:
         self, stamp: float, x: float, y: float, theta: float, v: float, floor: str
     ) -> None:
         self._truth = (x, y, theta)
+        self._history[round(stamp, 6)] = self._truth
+        if len(self._history) > 100:
+            self._history.pop(next(iter(self._history)))
         if not self._queue:
             return
         t = self._queue[0]
