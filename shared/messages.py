@@ -339,10 +339,14 @@ class Availability(Msg):
     reason: str = ""
 
 
-@message("follow_status")
+@message("follow_status", version=2)
 @dataclass
 class FollowStatus(Msg):
-    """The controller's progress along the current path (``state``: idle/following/arrived)."""
+    """The controller's progress along the current path (``state``: idle/following/arrived).
+
+    ``precise``: the path is a precise pass or a docking manoeuvre, not a leg (reports
+    keep the cross-track error of legs apart).
+    """
 
     stamp: float
     path_id: str
@@ -350,6 +354,7 @@ class FollowStatus(Msg):
     progress: float
     distance_to_goal: float
     cross_track: float
+    precise: bool = False
 
 
 @message("nav_goal")

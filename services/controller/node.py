@@ -114,6 +114,7 @@ def main(argv: list[str] | None = None) -> None:
                     cmd.progress,
                     cmd.distance_to_goal,
                     cmd.cross_track,
+                    tracker.precise,
                 )
             bus.publish(cmd_key, Twist(clock.stamp, cmd_v, cmd_w))
             bus.publish(status_key, status)

@@ -43,6 +43,7 @@ class Tracker:
         self.fields: dict[str, tuple[np.ndarray, float, tuple[float, float]]] = {}
         self.floor = ""
         self.use_mpc = False
+        self._precise = False
         if cfg.mode == "mpc":
             mpc_cfg = MPCConfig(
                 samples=cfg.mpc_samples,
@@ -85,6 +86,11 @@ class Tracker:
     def path_id(self) -> str:
         return self.pursuit.path_id
 
+    @property
+    def precise(self) -> bool:
+        """True while following a precise pass or docking (not a leg)."""
+        return self.docker.active or self._precise
+
     def set_path(
         self,
         path_id: str,
@@ -97,6 +103,7 @@ class Tracker:
         """Follow a path; reverse and precise (door, lift car) passes use pure pursuit,
         a path with ``dock_heading`` is a docking manoeuvre to its last waypoint."""
         self.docker.clear()
+        self._precise = precise
         if dock_heading is not None and len(waypoints) > 0:
             cap = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else None
             gx, gy = float(waypoints[-1][0]), float(waypoints[-1][1])

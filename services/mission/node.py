@@ -144,9 +144,7 @@ class MissionRun:
         bus.subscribe(
             keys.follow_status,
             FollowStatus,
-            lambda m: self.recorder.on_follow(
-                m.state, m.cross_track, ".door" in m.path_id or ".lift" in m.path_id
-            ),
+            lambda m: self.recorder.on_follow(m.state, m.cross_track, m.precise),
         )
         bus.subscribe(
             keys.pose,
