@@ -13,14 +13,11 @@ import numpy as np
 from py_trees.common import Access, Status
 
 from behaviours.fleet import FleetBehaviour
+from shared.geometry import angle_between
 from shared.messages import DoorMode, Path
 
 MOVING_M_S = 0.01  # odometry speeds above these: the chair is still moving
 MOVING_RAD_S = 0.02
-
-
-def _wrap(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
 
 
 class FollowPath(FleetBehaviour):
@@ -175,7 +172,7 @@ class DockAt(FleetBehaviour):
             return None
         p = est.pose
         x, y, h = self._goal
-        return math.hypot(x - p.x, y - p.y), abs(_wrap(h - p.theta))
+        return math.hypot(x - p.x, y - p.y), angle_between(h, p.theta)
 
     def update(self) -> Status:
         err = self.errors()

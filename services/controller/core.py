@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
+from shared.geometry import wrap_angle
 
 TURN_IN_PLACE_RAD = math.radians(60)
 
@@ -31,10 +32,6 @@ class Command:
     progress: float = 0.0
     distance_to_goal: float = 0.0
     cross_track: float = 0.0
-
-
-def _wrap(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
 
 
 class PathFollower:
@@ -85,11 +82,11 @@ class PathFollower:
         if not pose_fresh:
             return Command(0.0, 0.0, "stale", progress, to_goal, cross)
         if self.reverse:  # steer the chair's back as if it were its front, then drive backwards
-            theta = _wrap(theta + math.pi)
+            theta = wrap_angle(theta + math.pi)
         target = self._point_at(self._progress_s + self.cfg.lookahead_m)
         if to_goal < self.cfg.lookahead_m:
             target = goal
-        alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - theta)
+        alpha = wrap_angle(math.atan2(target[1] - y, target[0] - x) - theta)
         r = self.robot
         w_max = r.max_turn_rate
         starting = self._progress_s < self.cfg.start_align_m

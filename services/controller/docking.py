@@ -25,7 +25,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from services.controller.core import Command, _wrap
+from services.controller.core import Command
+from shared.geometry import angle_between, wrap_angle
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
 MIN_SPEED = 0.03  # m/s: below this the chair barely moves against its motor lag
@@ -85,7 +86,7 @@ class Docker:
         dist = math.hypot(ex, ey)
         if self._start_error < 0:
             self._start_error = max(dist, 1e-6)
-        heading_err = _wrap(gth - theta)
+        heading_err = wrap_angle(gth - theta)
         progress = max(0.0, min(1.0, 1.0 - dist / self._start_error))
         if self._arrived:
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
@@ -110,7 +111,7 @@ class Docker:
         """(v, w) of the move stage: face the target (or away from it), then drive."""
         lim = self.limits
         backwards = self._backwards_to(math.atan2(ey, ex), dist)
-        bearing = _wrap(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
+        bearing = wrap_angle(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
         w = max(-lim.max_turn, min(lim.max_turn, lim.turn_gain * bearing))
         if abs(bearing) > ALIGN_RAD:
             return 0.0, math.copysign(max(MIN_TURN, abs(w)), w)
@@ -144,8 +145,8 @@ class Docker:
             self._backwards = False
             return False
         goal = self.goal[2]
-        fwd = abs(_wrap(direction - goal))
-        rev = abs(_wrap(direction + math.pi - goal))
+        fwd = angle_between(direction, goal)
+        rev = angle_between(direction + math.pi, goal)
         if self._backwards is None or abs(fwd - rev) > SWITCH_RAD:
             self._backwards = rev < fwd
         return self._backwards

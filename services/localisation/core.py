@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.localisation.matcher import DistanceField, Match, match_scan
+from shared.geometry import angle_between, wrap_angle
 
 
 class OdometryLocaliser:
@@ -37,10 +38,10 @@ class OdometryLocaliser:
             lx, ly, lt = self._last_odom
             c, s = math.cos(-lt), math.sin(-lt)
             dx, dy = c * (ox - lx) - s * (oy - ly), s * (ox - lx) + c * (oy - ly)
-            dtheta = math.atan2(math.sin(otheta - lt), math.cos(otheta - lt))
+            dtheta = wrap_angle(otheta - lt)
             x, y, t = self.pose
             c, s = math.cos(t), math.sin(t)
-            t_new = math.atan2(math.sin(t + dtheta), math.cos(t + dtheta))
+            t_new = wrap_angle(t + dtheta)
             self.pose = (x + c * dx - s * dy, y + s * dx + c * dy, t_new)
         self._last_odom = (ox, oy, otheta)
         return self.pose
@@ -119,7 +120,7 @@ class MapLocaliser:
         )
         x, y, th = self.pose
         jump = math.hypot(m.x - x, m.y - y)
-        turn = abs(math.atan2(math.sin(m.theta - th), math.cos(m.theta - th)))
+        turn = angle_between(m.theta, th)
         good = (
             m.inlier_ratio >= s.min_inlier_ratio
             and jump <= s.max_correction_m

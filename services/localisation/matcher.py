@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
+from shared.geometry import wrap_angle
 from shared.site import GridMap
 
 
@@ -125,4 +126,4 @@ def match_scan(
     rms = float(np.sqrt(np.mean(d[inliers] ** 2))) if inliers.any() else math.inf
     sigma2 = max(rms, 0.01) ** 2
     cov = np.linalg.inv(h) * sigma2
-    return Match(float(x), float(y), math.atan2(math.sin(th), math.cos(th)), ratio, rms, it, cov)
+    return Match(float(x), float(y), wrap_angle(th), ratio, rms, it, cov)

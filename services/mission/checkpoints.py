@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from shared.geometry import angle_between
 from shared.messages import Checkpoint
 
 NEAR_M = 0.3  # "at the approach pose": within this distance of it
@@ -114,8 +115,7 @@ class CheckpointLog:
         x, y, theta = truth
         a = t.cp.approach
         t.position_error_m = math.hypot(x - a.x, y - a.y)
-        dth = math.atan2(math.sin(theta - a.theta), math.cos(theta - a.theta))
-        t.heading_error_deg = math.degrees(abs(dth))
+        t.heading_error_deg = math.degrees(angle_between(theta, a.theta))
         t.corrected = True
 
     def on_truth(
@@ -140,8 +140,7 @@ class CheckpointLog:
             if along > 0.05 and v > STILL:
                 t.set_off_s = stamp
                 if not t.corrected:
-                    dth = math.atan2(math.sin(theta - ath), math.cos(theta - ath))
-                    t.heading_error_deg = math.degrees(abs(dth))
+                    t.heading_error_deg = math.degrees(angle_between(theta, ath))
         if t.passed_s is not None:
             return
         if t.closing_at is not None and t.closing_stop_m is None and abs(v) < STILL:

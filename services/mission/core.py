@@ -16,6 +16,7 @@ import numpy as np
 from services.mission.checkpoints import CheckpointLog
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
+from shared.geometry import wrap_angle
 from shared.messages import NavStatus, Pose2D, SimStatus
 from shared.site import load_site
 
@@ -180,7 +181,7 @@ class Recorder:
         truth = self._truth.get(round(stamp, 6))
         if truth is None or self.finished:
             return
-        dth = math.atan2(math.sin(theta - truth[2]), math.cos(theta - truth[2]))
+        dth = wrap_angle(theta - truth[2])
         self._loc_sq.append(((x - truth[0]) ** 2 + (y - truth[1]) ** 2, dth**2))
 
     def on_follow(self, state: str, cross_track: float, precise: bool) -> None:

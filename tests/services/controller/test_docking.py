@@ -7,6 +7,7 @@ import math
 import pytest
 
 from services.controller.docking import Docker, DockLimits
+from shared.geometry import wrap_angle
 
 RATE = 25.0
 LAG_S = 0.25  # first-order motor lag, as the simulator's chair
@@ -91,9 +92,5 @@ def test_a_pose_across_the_corridor_facing_the_other_way_turns_first_then_backs_
     assert first.v == 0.0 and abs(first.w) > 0  # turns on the spot first
     x, y, th, t, _ = run(docker, 0.0, 0.0, math.pi / 2)
     assert math.hypot(x, y - 0.5) <= 0.05 + 0.01
-    assert abs(math.degrees(_wrap(th + math.pi / 2))) <= 1.5
+    assert abs(math.degrees(wrap_angle(th + math.pi / 2))) <= 1.5
     assert t < 20.0
-
-
-def _wrap(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
