@@ -40,14 +40,39 @@ class _Track:
     _side: float | None = None
 
 
+Pose = tuple[float, float, float]
+
+
+class PoseHistory:
+    """The last ``size`` true poses by the stamp of their tick.
+
+    Statuses and door states arrive on other keys than the ground truth, and can arrive
+    after the next tick's truth: figures about a tick look its pose up by stamp.
+    """
+
+    def __init__(self, size: int = 200) -> None:
+        self.size = size
+        self._poses: dict[float, Pose] = {}
+        self.latest: Pose | None = None
+
+    def add(self, stamp: float, pose: Pose) -> None:
+        self._poses[round(stamp, 6)] = pose
+        self.latest = pose
+        if len(self._poses) > self.size:
+            self._poses.pop(next(iter(self._poses)))
+
+    def at(self, stamp: float) -> Pose | None:
+        """The pose of the tick at ``stamp``, None if not (or no longer) known."""
+        return self._poses.get(round(stamp, 6))
+
+
 @dataclass
 class CheckpointLog:
     """Follows the chair through the current route's checkpoints, in order."""
 
     done: list[dict[str, Any]] = field(default_factory=list)
     _queue: list[_Track] = field(default_factory=list)
-    _truth: tuple[float, float, float] | None = None
-    _history: dict[float, tuple[float, float, float]] = field(default_factory=dict)
+    _truth: PoseHistory = field(default_factory=PoseHistory)
     _phase: tuple[str, float] | None = None  # (name, start) of the head's running phase
 
     def on_route(self, checkpoints: list[Checkpoint], stamp: float = 0.0) -> None:
@@ -97,10 +122,9 @@ class CheckpointLog:
         x, y, _ = self._truth_at(stamp)
         head.closing_at = (stamp, x, y)
 
-    def _truth_at(self, stamp: float) -> tuple[float, float, float] | None:
-        """The true pose at ``stamp`` (the tick a status or door state is about: they can
-        arrive after the next tick's truth, so "latest" would be a tick late at random)."""
-        return self._history.get(round(stamp, 6), self._truth)
+    def _truth_at(self, stamp: float) -> Pose | None:
+        """The true pose of the tick at ``stamp`` (the latest one if it is not known)."""
+        return self._truth.at(stamp) or self._truth.latest
 
     def rows(self, stamp: float) -> list[dict[str, Any]]:
         """The report's rows: the checkpoints done, and the one the mission ended at
@@ -111,7 +135,7 @@ class CheckpointLog:
         result = "abandoned" if head.passed_s is None else "passed"
         return [*self.done, self._row(head, stamp, result)]
 
-    def _corrected(self, t: _Track, truth: tuple[float, float, float]) -> None:
+    def _corrected(self, t: _Track, truth: Pose) -> None:
         x, y, theta = truth
         a = t.cp.approach
         t.position_error_m = math.hypot(x - a.x, y - a.y)
@@ -121,10 +145,7 @@ class CheckpointLog:
     def on_truth(
         self, stamp: float, x: float, y: float, theta: float, v: float, floor: str
     ) -> None:
-        self._truth = (x, y, theta)
-        self._history[round(stamp, 6)] = self._truth
-        if len(self._history) > 100:
-            self._history.pop(next(iter(self._history)))
+        self._truth.add(stamp, (x, y, theta))
         if not self._queue:
             return
         t = self._queue[0]

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from services.mission.checkpoints import CheckpointLog
+from services.mission.checkpoints import CheckpointLog, PoseHistory
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
 from shared.geometry import wrap_angle
@@ -134,7 +134,7 @@ class Recorder:
     phases: list[Phase] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     _last_xy: tuple[float, float] | None = None
-    _truth: dict[float, tuple[float, float, float]] = field(default_factory=dict)
+    _truth: PoseHistory = field(default_factory=PoseHistory)
     _loc_sq: list[tuple[float, float]] = field(default_factory=list)
     _track_sq: list[float] = field(default_factory=list)
     checkpoints: CheckpointLog = field(default_factory=CheckpointLog)
@@ -169,16 +169,14 @@ class Recorder:
         if self.finished:
             return
         if stamp is not None:
-            self._truth[round(stamp, 6)] = (x, y, theta)
-            if len(self._truth) > 200:
-                self._truth.pop(next(iter(self._truth)))
+            self._truth.add(stamp, (x, y, theta))
         if self._last_xy is not None:
             self.path_length_m += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
         self._last_xy = (x, y)
 
     def on_pose(self, stamp: float, x: float, y: float, theta: float) -> None:
         """A pose estimate: compared with the ground truth of the same tick."""
-        truth = self._truth.get(round(stamp, 6))
+        truth = self._truth.at(stamp)
         if truth is None or self.finished:
             return
         dth = wrap_angle(theta - truth[2])
