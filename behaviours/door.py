@@ -101,6 +101,7 @@ class IdleMotion(FleetBehaviour):
         self.amplitude_m = amplitude_m
         self._back = False
         self._moves = 0
+        self._path_id = ""
 
     def initialise(self) -> None:
         self._back, self._moves = False, 0

@@ -26,8 +26,8 @@ Phase 4 (completion) is the door's Sequence succeeding. A door or lift whose wai
 out is named in ``/mission/blocked``: the navigator then plans around it.
 
 Blackboard (namespace ``/mission``): ``goal`` (Pose2D or None), ``place`` (str),
-``route`` (RouteReply), ``phase`` (str), ``failure`` (str), ``blocked`` (str),
-``correction`` (position m, heading deg, seconds of the last Phase 0 / 1).
+``route`` (RouteReply), ``action`` (str), ``phase`` (str), ``failure`` (str),
+``blocked`` (str).
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from py_trees.common import Access, Status
+from py_trees.common import Status
 
 from behaviours.fleet import FleetBehaviour
 from shared.geometry import angle_between
@@ -107,8 +107,8 @@ class DockAt(FleetBehaviour):
     keep trying until the time limit).
 
     ``heading`` None means "face ``face`` (x, y) from wherever the chair stands": the
-    seed's Phase 1 turn towards the exit pose, on the spot. The final errors go to
-    ``/mission/correction`` as ``(position_m, heading_deg, seconds)``.
+    seed's Phase 1 turn towards the exit pose, on the spot. The final errors are its
+    feedback (the mission report measures them on the ground truth).
     """
 
     def __init__(
@@ -134,7 +134,6 @@ class DockAt(FleetBehaviour):
         self.heading_tolerance = math.radians(heading_tolerance_deg)
         self.attempts = attempts
         self.stall_s = stall_s
-        self.bb.register_key("correction", access=Access.WRITE)
         self._goal: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._tries = 0
         self._best_at = 0.0
@@ -196,7 +195,6 @@ class DockAt(FleetBehaviour):
             status is not None and status.path_id == self._path_id and status.state == "arrived"
         )
         if arrived and within:
-            self.bb.correction = (dist, math.degrees(dth), now - self._started)
             self.feedback_message = (
                 f"done: {dist:.3f} m, {math.degrees(dth):.1f} deg in {now - self._started:.1f} s"
             )
@@ -272,6 +270,7 @@ class DriveThrough(FollowPath):
         self.required_m = length
         self.held_for = ""
         self._odom0: tuple[float, float] | None = None
+        self._odom_dir = 0.0
         self._last_scan = -1.0
         self._blocked = False
 

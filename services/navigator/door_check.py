@@ -18,6 +18,12 @@ import numpy as np
 OPEN, CLOSED, UNKNOWN = "open", "closed", "unknown"
 
 
+def _in_band(points: np.ndarray, sensor_height_m: float, band: tuple[float, float]) -> np.ndarray:
+    """The points (sensor frame) between ``band`` metres above the floor."""
+    height = points[:, 2] + sensor_height_m
+    return points[(height >= band[0]) & (height <= band[1])]
+
+
 def door_state_from_scan(
     points: np.ndarray,
     pose: tuple[float, float, float],
@@ -33,8 +39,7 @@ def door_state_from_scan(
     if points is None or len(points) == 0:
         return UNKNOWN
     x, y, th = pose
-    height = points[:, 2] + sensor_height_m
-    pts = points[(height >= band[0]) & (height <= band[1])]
+    pts = _in_band(points, sensor_height_m, band)
     if len(pts) < min_points:
         return UNKNOWN
     dx, dy = door_xy[0] - x, door_xy[1] - y
@@ -83,8 +88,7 @@ def lane_blocked(
     to_plane = (door_xy[0] - x) * ux + (door_xy[1] - y) * uy + margin_m
     if to_plane <= lead_m:
         return False
-    height = points[:, 2] + sensor_height_m
-    pts = points[(height >= band[0]) & (height <= band[1])]
+    pts = _in_band(points, sensor_height_m, band)
     a = direction - th  # the lane's direction in the sensor frame
     ca, sa = math.cos(a), math.sin(a)
     along = pts[:, 0] * ca + pts[:, 1] * sa

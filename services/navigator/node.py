@@ -292,16 +292,7 @@ class Navigator:
             self.replans,
             self.cfg.max_replans,
         )
-        self.svc.bus.publish(
-            self.svc.keys.key("events", source=NAME),
-            Event(
-                self.fleet.now(),
-                NAME,
-                "fallback",
-                f"avoiding {blocked}: {self.bb.failure}",
-                "warning",
-            ),
-        )
+        self.fleet.event("fallback", f"avoiding {blocked}: {self.bb.failure}")
         self.svc.bus.publish(
             self.svc.keys.planner_updates,
             Availability(self.fleet.now(), blocked, False, self.bb.failure),
