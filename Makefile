@@ -36,7 +36,7 @@ bench: $(STAMP)
 	$(VENV)/bin/wheelnav bench planner
 
 docs: $(STAMP)
-	$(PY) -m services.tools.docs
+	$(PY) -m wheelnav.docs
 
 clean:
 	rm -rf $(VENV) demo-report.json scenario-reports

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-from services.launcher.node import open_router
-from services.mission.node import free_port
 from shared.transport import Bus
+from wheelnav.launcher.supervisor import open_router
+from wheelnav.mission.run import free_port
 
 ROOT = Path(__file__).resolve().parents[1]
 PYTHON = sys.executable

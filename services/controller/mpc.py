@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from services.controller.core import Command
+from services.controller.pure_pursuit import Command
 from shared.config import Footprint, RobotConfig
 
 FAR = 1.0e3  # clearance (m) reported where nothing is near

@@ -18,9 +18,9 @@ import math
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from services.controller.core import Command, PathFollower
 from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import MPCConfig, SamplingMPC
+from services.controller.pure_pursuit import Command, PathFollower
 from shared.config import ControllerConfig, RobotConfig
 from shared.site import Site
 

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from services.localisation.core import MapLocaliser, MapModeSettings, OdometryLocaliser
+from services.localisation.localiser import MapLocaliser, MapModeSettings, OdometryLocaliser
 from services.localisation.matcher import DistanceField
 from shared.messages import Clock, Event, Odometry, PointCloud, Pose2D, PoseEstimate
 from shared.service import Service

@@ -12,8 +12,8 @@ import itertools
 
 import numpy as np
 
-from services.planner.core import Planner
 from services.planner.errors import PlanError
+from services.planner.grid_planner import Planner
 from services.planner.routes import Checkpoint, Route, RoutePlanner
 from shared import messages as m
 from shared.service import Service

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from services.planner import errors
-from services.planner.core import Plan, Planner
+from services.planner.grid_planner import Plan, Planner
 from services.planner.rooms import RoomMap, detect_doors_along_path, segment_rooms
 from shared.config import PlannerConfig
 from shared.site import Door, Site

@@ -1,7 +1,7 @@
 """Viz service: streams the fleet's topics into a rerun recording or viewer.
 
 Subscribes to pose, ground truth, scans, path, commands and mission status, and logs
-them under the entity tree of services/viz/viz.py on the ``sim`` timeline. Records to
+them under the entity tree of services/viz/rerun_log.py on the ``sim`` timeline. Records to
 an ``.rrd`` file (``--save``), serves a viewer (``--serve``), or connects to a running
 viewer (``--viewer URL``).
 """

@@ -5,9 +5,9 @@ from __future__ import annotations
 import py_trees
 
 from behaviours.snapshot import signature, snapshot
-from services.tools.core import render_tree
 from shared.codec import decode, encode
 from shared.messages import TreeSnapshot
+from shared.tree_text import render_tree
 
 
 def tree() -> py_trees.behaviour.Behaviour:

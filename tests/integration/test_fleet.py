@@ -16,13 +16,13 @@ from pathlib import Path
 
 import pytest
 
-from services.launcher.fleet import services_for
-from services.launcher.node import Supervisor, wait_ready
-from services.mission.core import load_scenario
-from services.mission.node import MissionRun, free_port
 from shared.messages import NavGoal, Odometry, Twist
 from shared.topics import Keys
 from tests.conftest import PYTHON, ROOT
+from wheelnav.launcher.fleet import services_for
+from wheelnav.launcher.supervisor import Supervisor, wait_ready
+from wheelnav.mission.run import MissionRun, free_port
+from wheelnav.mission.scenario import load_scenario
 
 pytestmark = pytest.mark.e2e
 DEMO = ROOT / "scenarios" / "demo.yaml"
@@ -30,7 +30,7 @@ DEMO = ROOT / "scenarios" / "demo.yaml"
 
 def wheelnav(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [PYTHON, "-m", "services.cli", *args],
+        [PYTHON, "-m", "wheelnav.cli", *args],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -41,7 +41,7 @@ def wheelnav(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
 def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     up = subprocess.Popen(
-        [PYTHON, "-m", "services.cli", "up", "--listen", endpoint],
+        [PYTHON, "-m", "wheelnav.cli", "up", "--listen", endpoint],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -271,7 +271,7 @@ def test_killed_controller_stops_the_chair_and_is_restarted(fleet) -> None:
         [
             PYTHON,
             "-m",
-            "services.cli",
+            "wheelnav.cli",
             "tree",
             "--once",
             "--duration",

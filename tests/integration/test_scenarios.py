@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from services.mission.core import load_scenario
-from services.mission.node import MissionRun
 from tests.conftest import ROOT
 from tests.integration.test_fleet import Capture
+from wheelnav.mission.run import MissionRun
+from wheelnav.mission.scenario import load_scenario
 
 pytestmark = pytest.mark.e2e
 

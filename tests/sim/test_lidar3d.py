@@ -200,7 +200,7 @@ def test_bad_parameters_fail_with_one_line(world: World) -> None:
 
 
 def test_sim_bench_reports_every_figure(capsys: pytest.CaptureFixture[str]) -> None:
-    from services.sim.bench import main
+    from wheelnav.bench.sim import main
 
     assert main(["--json", "--seconds", "0.2"]) == 0
     out = json.loads(capsys.readouterr().out)

@@ -11,14 +11,14 @@ from scipy.ndimage import distance_transform_edt
 
 from services.controller import mpc as mpc_module
 from services.controller.mpc import MPCConfig, SamplingMPC, footprint_points
-from services.controller.mpc_bench import (
+from shared.config import RobotConfig
+from wheelnav.bench.mpc import (
     RES,
     closed_loop,
     door_scene,
     l_corridor_scene,
     lidar_scan,
 )
-from shared.config import RobotConfig
 
 WEIGHTS = mpc_module._WEIGHTS  # every cost weight the kernel reads, from the one list
 BACKENDS = ("numba", "numpy")

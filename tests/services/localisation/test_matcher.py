@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from services.localisation.core import MapLocaliser, MapModeSettings
+from services.localisation.localiser import MapLocaliser, MapModeSettings
 from services.localisation.matcher import DistanceField, match_scan
 from shared.config import load
 from shared.site import load_site

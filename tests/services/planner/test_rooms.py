@@ -9,7 +9,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from services.planner.astar import astar
+from services.planner.grid_astar import astar
 from services.planner.rooms import RoomMap, detect_doors_along_path, segment_rooms
 from shared.site import load_site
 from sim.sitegen import draw

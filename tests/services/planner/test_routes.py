@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from services.planner import errors
-from services.planner.core import Planner
+from services.planner.grid_planner import Planner
 from services.planner.node import to_reply
 from services.planner.routes import RoutePlanner, crossings
 from shared.codec import decode, encode

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from services.planner.core import Planner
+from services.planner.grid_planner import Planner
 from services.planner.routes import RoutePlanner, crossings
 from shared.config import PlannerConfig, RobotConfig
 from shared.site import load_site

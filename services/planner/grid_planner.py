@@ -1,0 +1,211 @@
+"""The planner's core: from a site and two poses to a path with a speed profile.
+
+Per floor it inflates the map once (circular, by the footprint's half width plus a
+margin), then answers each request with an 8-connected A* on the inflated grid, a
+line-of-sight shortening that never crosses the inflated area, waypoints about
+``waypoint_spacing_m`` apart and a reference speed that falls to 0 at the goal.
+No I/O and no clock: the node turns requests into calls and errors into codes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from services.planner import errors
+from services.planner.grid_astar import Landmarks, NoPathError, astar
+from services.planner.inflation import inflate
+from shared.config import PlannerConfig, RobotConfig
+from shared.site import GridMap, Site, SiteError
+
+
+@dataclass
+class Plan:
+    """A planned route on one floor: waypoints (N, 2), speeds (N,), and its length."""
+
+    floor: str
+    waypoints: np.ndarray
+    v_ref: np.ndarray
+    length_m: float
+    zones: list[str] = field(default_factory=list)  # per waypoint: room/corridor/door/goal
+
+
+@dataclass
+class _FloorGrid:
+    grid: GridMap
+    lethal: np.ndarray
+    cost: np.ndarray
+    landmarks: Landmarks | None
+
+
+def inflation_radius(robot: RobotConfig, cfg: PlannerConfig) -> float:
+    """Radius the obstacles grow by: half the chair's width plus the safety margin."""
+    return robot.footprint.width / 2 + cfg.inflation_margin_m
+
+
+class Planner:
+    """Plans on every floor of a site; inflated grids are computed once per floor."""
+
+    def __init__(self, site: Site, robot: RobotConfig, cfg: PlannerConfig) -> None:
+        self.site = site
+        self.cfg = cfg
+        self.radius = inflation_radius(robot, cfg)
+        self._floors: dict[str, _FloorGrid] = {}
+        astar(np.zeros((3, 3), dtype=bool), (0, 0), (2, 2))  # compile (or load) the JIT now
+        for name, floor in site.floors.items():
+            occ = floor.map.occupied(cfg.unknown_is_occupied)
+            lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)
+            lm = Landmarks(lethal, cfg.landmarks) if cfg.landmarks and (~lethal).any() else None
+            self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm)
+
+    def resolve_place(self, place: str) -> tuple[float, float, float, str]:
+        """(x, y, theta, floor) of a named place; UnknownPlace if the site has none so called."""
+        try:
+            p = self.site.place(place)
+        except SiteError as exc:
+            raise errors.UnknownPlace(str(exc)) from None
+        return p.x, p.y, p.theta, p.floor
+
+    def floor_name(self, floor: str) -> str:
+        """The site's name for ``floor`` ("" = the first); UnknownFloor if there is none."""
+        try:
+            return self.site.floor(floor).name
+        except SiteError as exc:
+            raise errors.UnknownFloor(str(exc)) from None
+
+    def is_free(self, xy: tuple[float, float], floor: str) -> bool:
+        """True if the chair's reference point may stand at ``xy`` (inside the map, not lethal)."""
+        fg = self._floors[self.floor_name(floor)]
+        r, c = fg.grid.to_cell(*xy)
+        return fg.grid.contains(r, c) and not fg.lethal[r, c]
+
+    def plan(
+        self,
+        start: tuple[float, float],
+        goal: tuple[float, float],
+        floor: str,
+        closed: list[tuple[tuple[float, float], tuple[float, float]]] = (),
+    ) -> Plan:
+        """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor).
+
+        ``closed`` lists segments (door openings) the path must not cross.
+        """
+        floor = self.floor_name(floor)
+        fg = self._floors[floor]
+        s = self._cell(fg, start, "start", errors.StartOccupied)
+        g = self._cell(fg, goal, "goal", errors.GoalOccupied)
+        lethal = fg.lethal
+        if closed:
+            lethal = lethal.copy()
+            for p1, p2 in closed:
+                block_segment(lethal, fg.grid, p1, p2)
+            lethal[s] = lethal[g] = False
+        try:
+            cells = astar(lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks)
+        except NoPathError as exc:
+            raise errors.NoPath(
+                f"no path from {_xy(start)} to {_xy(goal)} on floor {floor}: {exc}"
+            ) from None
+        corners = shorten(cells, lethal)
+        pts = fg.grid.to_world(corners)
+        pts[0], pts[-1] = start, goal
+        length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+        spacing = max(self.cfg.waypoint_spacing_m, length / self.cfg.max_waypoints)
+        waypoints = densify(pts, spacing)
+        v_ref = speed_profile(waypoints, self.cfg.cruise_speed, self.cfg.goal_speed_radius_m)
+        return Plan(floor, waypoints, v_ref, length)
+
+    def _cell(
+        self,
+        fg: _FloorGrid,
+        xy: tuple[float, float],
+        what: str,
+        blocked_error: type[errors.PlanError],
+    ) -> tuple[int, int]:
+        if not all(math.isfinite(v) for v in xy):
+            raise errors.OutsideMap(f"{what} {xy} is not a finite point")
+        r, c = fg.grid.to_cell(*xy)
+        if not fg.grid.contains(r, c):
+            raise errors.OutsideMap(f"{what} ({xy[0]:.2f}, {xy[1]:.2f}) is outside the map")
+        if fg.lethal[r, c]:
+            raise blocked_error(
+                f"{what} ({xy[0]:.2f}, {xy[1]:.2f}) is inside a wall or within "
+                f"{self.radius:.2f} m of one"
+            )
+        return r, c
+
+
+def _xy(p: tuple[float, float]) -> str:
+    return f"({p[0]:.2f}, {p[1]:.2f})"
+
+
+def block_segment(
+    lethal: np.ndarray,
+    grid: GridMap,
+    p1: tuple[float, float],
+    p2: tuple[float, float],
+    thickness_m: float = 0.15,
+) -> None:
+    """Mark the cells within ``thickness_m`` of segment p1-p2 lethal (a closed door)."""
+    a, b = np.asarray(p1, float), np.asarray(p2, float)
+    n = max(2, int(np.ceil(np.linalg.norm(b - a) / (grid.resolution / 2))) + 1)
+    pts = a + (b - a) * np.linspace(0.0, 1.0, n)[:, None]
+    k = int(np.ceil(thickness_m / grid.resolution))
+    for dr in range(-k, k + 1):
+        for dc in range(-k, k + 1):
+            rows = np.floor((pts[:, 1] - grid.origin[1]) / grid.resolution).astype(int) + dr
+            cols = np.floor((pts[:, 0] - grid.origin[0]) / grid.resolution).astype(int) + dc
+            ok = (rows >= 0) & (rows < lethal.shape[0]) & (cols >= 0) & (cols < lethal.shape[1])
+            lethal[rows[ok], cols[ok]] = True
+
+
+def line_is_free(lethal: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
+    """True if the straight segment between cells ``a`` and ``b`` touches no lethal cell."""
+    n = int(np.ceil(np.abs(b - a).max() * 2)) + 1
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    pts = np.rint(a + (b - a) * t).astype(int)
+    return not lethal[pts[:, 0], pts[:, 1]].any()
+
+
+def shorten(cells: np.ndarray, lethal: np.ndarray) -> np.ndarray:
+    """Keep only the corners needed so every straight leg stays outside the lethal area."""
+    keep = [0]
+    i = 0
+    last = len(cells) - 1
+    while i < last:
+        lo, hi = i + 1, last
+        while lo < hi:  # farthest visible cell, by bisection on the path index
+            mid = (lo + hi + 1) // 2
+            if line_is_free(lethal, cells[i], cells[mid]):
+                lo = mid
+            else:
+                hi = mid - 1
+        i = lo
+        keep.append(i)
+    return cells[keep]
+
+
+def densify(points: np.ndarray, spacing: float) -> np.ndarray:
+    """Insert points so no leg is longer than ``spacing`` (keeps the given corners)."""
+    out = [points[0]]
+    for a, b in zip(points[:-1], points[1:], strict=True):
+        n = max(1, math.ceil(float(np.linalg.norm(b - a)) / spacing))
+        for k in range(1, n + 1):
+            out.append(a + (b - a) * (k / n))
+    return np.asarray(out, dtype=float)
+
+
+def speed_profile(
+    waypoints: np.ndarray, cruise: float, slow_radius: float, min_speed: float = 0.1
+) -> np.ndarray:
+    """Cruise speed, falling linearly within ``slow_radius`` of the goal, 0 at the goal."""
+    legs = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
+    to_go = np.concatenate([np.cumsum(legs[::-1])[::-1], [0.0]])
+    if slow_radius <= 0:
+        v = np.full(len(waypoints), cruise)
+    else:
+        v = np.clip(cruise * to_go / slow_radius, min_speed, cruise)
+    v[-1] = 0.0
+    return v

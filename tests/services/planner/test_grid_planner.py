@@ -1,0 +1,78 @@
+"""The planner core on the bundled site: routes, waypoints, speed profile, typed errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from services.planner import errors
+from services.planner.grid_planner import Planner, densify, line_is_free, speed_profile
+from services.planner.routes import RoutePlanner
+from shared.config import PlannerConfig, RobotConfig
+from shared.site import load_site
+from tests.conftest import ROOT
+
+SITE = load_site(ROOT / "sites" / "two_rooms")
+
+
+@pytest.fixture(scope="module")
+def planner() -> RoutePlanner:
+    return RoutePlanner(Planner(SITE, RobotConfig(), PlannerConfig()), SITE, PlannerConfig())
+
+
+def test_plan_through_the_doorway(planner: RoutePlanner) -> None:
+    plan = planner.planner.plan((2.0, 2.7), (10.5, 2.7), "1")
+    wp = plan.waypoints
+    assert np.allclose(wp[0], (2.0, 2.7)) and np.allclose(wp[-1], (10.5, 2.7))
+    crossing = wp[np.argmin(np.abs(wp[:, 0] - 6.2))]
+    assert 2.2 < crossing[1] < 3.2  # goes through the door
+    assert plan.v_ref[-1] == 0.0 and plan.v_ref.max() == PlannerConfig().cruise_speed
+    legs = np.linalg.norm(np.diff(wp, axis=0), axis=1)
+    assert legs.max() <= PlannerConfig().waypoint_spacing_m + 1e-9
+    assert 8.3 <= plan.length_m < 9.5
+    fg = planner.planner._floors["1"]
+    cells = np.array([fg.grid.to_cell(x, y) for x, y in densify(wp, 0.02)])
+    assert not fg.lethal[cells[:, 0], cells[:, 1]].any()  # never inside the inflated area
+
+
+@pytest.mark.parametrize(
+    ("start", "goal", "place", "error"),
+    [
+        ((2.0, 2.7), (6.2, 1.0), "", errors.GoalOccupied),
+        ((6.2, 1.0), (10.5, 2.7), "", errors.StartOccupied),
+        ((2.0, 2.7), (50.0, 2.7), "", errors.OutsideMap),
+        ((2.0, 2.7), None, "kitchen", errors.UnknownPlace),
+        ((2.0, 2.7), None, "", errors.BadRequest),
+        ((2.0, 2.7), (float("nan"), 1.0), "", errors.OutsideMap),
+    ],
+)
+def test_refusals_are_typed_with_one_line(planner, start, goal, place, error) -> None:
+    with pytest.raises(error) as info:
+        planner.request(start, "1", goal, "1" if goal else "", place)
+    assert "\n" not in str(info.value) and info.value.code in errors.CODES
+
+
+def test_unreachable_goal_is_no_path(tmp_path) -> None:
+    from sim.sitegen import draw, write_map
+
+    occ = draw(
+        (6.0, 3.0),
+        [(0, 0, 6, 0.2), (0, 2.8, 6, 3), (0, 0, 0.2, 3), (5.8, 0, 6, 3), (2.9, 0, 3.1, 3)],
+    )
+    planner = Planner(load_site(write_map(occ, tmp_path, "m")), RobotConfig(), PlannerConfig())
+    with pytest.raises(errors.NoPath):
+        planner.plan((1.5, 1.5), (4.5, 1.5), "")
+
+
+def test_speed_profile_slows_to_zero_at_the_goal() -> None:
+    pts = np.stack([np.linspace(0, 5, 11), np.zeros(11)], axis=1)
+    v = speed_profile(pts, cruise=0.5, slow_radius=1.0)
+    assert v[0] == 0.5 and v[-1] == 0.0
+    assert np.all(np.diff(v[-4:]) <= 0) and v[-2] == pytest.approx(0.25)
+
+
+def test_line_of_sight() -> None:
+    lethal = np.zeros((10, 10), bool)
+    lethal[5, 2:8] = True
+    assert not line_is_free(lethal, np.array([0, 5]), np.array([9, 5]))
+    assert line_is_free(lethal, np.array([0, 0]), np.array([9, 0]))

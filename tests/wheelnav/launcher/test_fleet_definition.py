@@ -1,0 +1,51 @@
+"""The launcher and docker-compose.yml describe the same fleet, with the same commands."""
+
+from __future__ import annotations
+
+import yaml
+
+from shared.config import LauncherConfig
+from tests.conftest import ROOT
+from wheelnav.launcher.backoff import Backoff
+from wheelnav.launcher.compose import render_compose
+from wheelnav.launcher.fleet import SERVICES, services_for
+from wheelnav.launcher.supervisor import Supervisor
+
+
+def compose() -> dict:
+    return yaml.safe_load((ROOT / "docker-compose.yml").read_text())
+
+
+def test_committed_compose_file_is_generated_from_the_fleet() -> None:
+    assert (ROOT / "docker-compose.yml").read_text() == render_compose(), (
+        "run `wheelnav compose > docker-compose.yml`"
+    )
+
+
+def test_same_services_and_commands_as_the_launcher() -> None:
+    services = compose()["services"]
+    assert set(services) == {"router"} | {s.name for s in SERVICES}
+    assert services["router"]["image"].startswith("eclipse/zenoh")
+    for profile in ("sim", "hardware"):
+        in_compose = {n for n, s in services.items() if profile in s["profiles"]} - {"router"}
+        assert in_compose == {s.name for s in services_for(profile)}
+    sup = Supervisor(list(SERVICES), "tcp/router:7447", LauncherConfig(), "/config/fleet.yaml")
+    for spec in SERVICES:
+        local = sup._command(spec)
+        container = services[spec.name]["command"]
+        assert local[1:] == container[1:], spec.name  # same module, config and endpoint flags
+        assert (ROOT / "services" / spec.module.split(".")[1] / "node.py").is_file()
+
+
+def test_dockerfile_installs_every_package_the_fleet_runs() -> None:
+    dockerfile = (ROOT / "deploy" / "Dockerfile").read_text()
+    for pkg in ("services", "behaviours", "sim", "shared", "sites"):
+        assert f"COPY {pkg} ./{pkg}" in dockerfile
+    for profile in ("sim", "hardware"):
+        assert (ROOT / "deploy" / f"fleet.{profile}.yaml").is_file()
+
+
+def test_backoff_grows_and_resets() -> None:
+    b = Backoff(base_s=0.5, max_s=4.0, reset_after_s=30.0)
+    assert [b.on_exit(1.0) for _ in range(5)] == [0.5, 1.0, 2.0, 4.0, 4.0]
+    assert b.on_exit(60.0) == 0.5

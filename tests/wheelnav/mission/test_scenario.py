@@ -1,0 +1,81 @@
+"""Scenario loading and the report recorder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from shared.config import ConfigError
+from shared.messages import NavStatus, SimStatus
+from tests.conftest import ROOT
+from wheelnav.mission.scenario import Recorder, load_scenario
+
+
+def test_demo_scenario_loads() -> None:
+    s = load_scenario(ROOT / "scenarios" / "demo.yaml", ["controller.lookahead_m=0.7"])
+    assert s.place == "room_b" and s.goal is None
+    assert Path(s.config.site) == ROOT / "sites" / "two_rooms"
+    assert s.config.sim.start.x == 2.0 and s.config.sim.seed == 1
+    assert s.config.sim.realtime_factor == 0.0
+    assert "mission" in s.config.sim.start_after
+    assert s.config.controller.lookahead_m == 0.7
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("site: x\nstart: {x: 0, y: 0}\n", "missing key 'goal'"),
+        ("site: x\nstart: {x: 0, y: 0}\ngoal: {place: a}\nspeed: 3\n", "unknown key 'speed'"),
+        ("site: x\nstart: {x: 0, y: 0, z: 1}\ngoal: {place: a}\n", "sim.start.z: unknown key"),
+        ("site: x\nstart: {x: 0, y: 0}\ngoal: {x: 1}\n", "goal: expected"),
+        (
+            "site: x\nstart: {x: 0, y: 0}\ngoal: {place: a}\ntime_limit_s: -1\n",
+            "time_limit_s: must be > 0",
+        ),
+    ],
+)
+def test_bad_scenarios(tmp_path: Path, text: str, message: str) -> None:
+    (tmp_path / "s.yaml").write_text(text)
+    with pytest.raises(ConfigError, match=message):
+        load_scenario(tmp_path / "s.yaml")
+
+
+def test_recorder_phases_and_report() -> None:
+    r = Recorder("g1")
+    r.on_status(NavStatus(0.1, "other", "running", phase="plan"))  # not our goal
+    r.on_status(NavStatus(0.2, "g1", "running", phase="plan"))
+    r.on_status(NavStatus(0.4, "g1", "running", phase="follow"))
+    for x in range(4):
+        r.on_truth(float(x), 0.0)
+    r.on_sim_status(SimStatus(1.0, 0, False, 0.4, 0.25))
+    r.on_status(NavStatus(9.0, "g1", "succeeded", reason="arrived"))
+    r.on_time(9.0, 60.0)
+    rep = r.report("demo", 3.0)
+    assert rep["success"] and rep["reason"] == "arrived"
+    assert rep["path_length_m"] == 3.0 and rep["min_clearance_m"] == 0.25
+    assert [(p["name"], p["start_s"], p["end_s"]) for p in rep["phases"]] == [
+        ("plan", 0.2, 0.4),
+        ("follow", 0.4, 9.0),
+    ]
+    for key in (
+        "success",
+        "reason",
+        "collisions",
+        "min_clearance_m",
+        "sim_time_s",
+        "wall_time_s",
+        "path_length_m",
+        "phases",
+    ):
+        assert key in rep
+
+
+def test_recorder_time_limit_and_collisions() -> None:
+    r = Recorder("g1")
+    r.on_status(NavStatus(0.2, "g1", "running", phase="follow"))
+    r.on_sim_status(SimStatus(1.0, 2, True, -0.01, -0.01))
+    r.on_time(30.0, 30.0)
+    rep = r.report("x", 1.0)
+    assert not rep["success"] and rep["state"] == "timeout"
+    assert rep["reason"] == "time limit of 30 s reached" and rep["collisions"] == 2

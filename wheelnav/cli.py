@@ -1,0 +1,56 @@
+"""The ``wheelnav`` command: run the fleet, run missions, and look at topics.
+
+wheelnav up [--profile sim|hardware]     the whole fleet around a local router
+wheelnav mission SCENARIO.yaml           one mission, with a report
+wheelnav go PLACE [--wait] | cancel | status   the mission API on a live fleet
+wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
+wheelnav compose [--check]               docker-compose.yml from the fleet definition
+wheelnav bench planner [--json]          performance figures against a named peer
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from shared.config import ConfigError
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="wheelnav",
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="\n".join(__doc__.splitlines()[2:]),
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    from wheelnav import mission_api
+    from wheelnav.bench import cli as bench_cli
+    from wheelnav.launcher import cli as launcher_cli
+    from wheelnav.mission import cli as mission_cli
+    from wheelnav.topic_tools import cli as topic_cli
+
+    launcher_cli.add_commands(sub)
+    mission_cli.add_commands(sub)
+    mission_api.add_commands(sub)
+    topic_cli.add_commands(sub)
+    topic_cli.add_tree_command(sub)
+    bench_cli.add_commands(sub)
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except ConfigError as exc:
+        print(f"wheelnav: {exc}", file=sys.stderr)
+        return 2
+    except RuntimeError as exc:  # e.g. no router at the endpoint given
+        print(f"wheelnav: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:  # output piped into head and the like: stop quietly
+        sys.stderr.close()
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,92 @@
+"""``wheelnav up`` and ``wheelnav compose``: argument parsing for the launcher."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from shared import config as config_mod
+from shared.service import add_override_argument
+from shared.topics import Keys
+from wheelnav.launcher.compose import render_compose
+from wheelnav.launcher.fleet import PROFILES, services_for
+from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
+
+COMPOSE_FILE = Path(__file__).resolve().parents[2] / "docker-compose.yml"
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "up",
+        help="start the whole fleet around a local Zenoh router",
+        description="Start the whole fleet as child processes around an "
+        "in-process Zenoh router. Ctrl-C stops everything.",
+    )
+    p.add_argument("--profile", choices=PROFILES, default="sim")
+    p.add_argument("--config", metavar="FILE", help="fleet config YAML")
+    add_override_argument(p)
+    p.add_argument(
+        "--listen",
+        metavar="ENDPOINT",
+        help="router endpoint (default: launcher.router_listen, tcp/127.0.0.1:7447); "
+        "use tcp/0.0.0.0:7447 to let a laptop connect",
+    )
+    p.set_defaults(run=run_up)
+    c = sub.add_parser(
+        "compose",
+        help="print docker-compose.yml generated from the fleet",
+        description="Print the docker-compose.yml that describes the same fleet.",
+    )
+    c.add_argument(
+        "--check", action="store_true", help="exit 1 if the committed docker-compose.yml differs"
+    )
+    c.set_defaults(run=run_compose)
+
+
+def run_up(args: argparse.Namespace) -> int:
+    cfg = config_mod.load(args.config, args.overrides)
+    listen = args.listen or cfg.launcher.router_listen
+    connect = listen.replace("0.0.0.0", "127.0.0.1")
+    extra = [a for o in args.overrides for a in ("--set", o)]
+    specs = services_for(args.profile)
+    if args.profile == "hardware":
+        extra += ["--set", "clock=wall"]
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    bus = open_router(listen)
+    sup = Supervisor(specs, connect, cfg.launcher, args.config, extra)
+    sup.say(f"router listening on {listen}; starting {', '.join(s.name for s in specs)}")
+    sup.start()
+    try:
+        missing = wait_ready(
+            bus, Keys(cfg.robot.name), [s.name for s in specs], cfg.launcher.ready_timeout_s, stop
+        )
+        if missing and not stop.is_set():
+            sup.say(f"not up after {cfg.launcher.ready_timeout_s:.0f} s: {', '.join(missing)}")
+        elif not stop.is_set():
+            sup.say(f"fleet up; try: wheelnav topic echo {Keys(cfg.robot.name).odom}")
+        stop.wait()
+        sup.say("stopping")
+    finally:
+        sup.stop()
+        bus.close()
+    return 0
+
+
+def run_compose(args: argparse.Namespace) -> int:
+    text = render_compose()
+    if args.check:
+        current = COMPOSE_FILE.read_text() if COMPOSE_FILE.is_file() else ""
+        if current != text:
+            print(
+                "docker-compose.yml is out of date: run `wheelnav compose > docker-compose.yml`",
+                file=sys.stderr,
+            )
+            return 1
+        return 0
+    sys.stdout.write(text)
+    return 0

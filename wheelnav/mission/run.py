@@ -1,0 +1,274 @@
+"""``wheelnav mission``: run the fleet for one scenario and write its report.
+
+Starts a private router on a free loopback port and the sim profile around it, joins
+the lockstep as the ``mission`` participant (so the goal is sent at a fixed simulation
+time), prints progress every few simulated seconds, and ends on success, failure or the
+scenario's time limit. The report is printed and, with ``--report``, written as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+import yaml
+
+from shared import config as config_mod
+from shared.lockstep import Participant
+from shared.messages import (
+    Clock,
+    DoorMode,
+    DoorState,
+    Event,
+    FollowStatus,
+    NavGoal,
+    NavStatus,
+    Odometry,
+    PoseEstimate,
+    RouteReply,
+    SimStatus,
+)
+from shared.topics import Keys
+from shared.transport import Bus
+from wheelnav.launcher.fleet import services_for, viz_recorder
+from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
+from wheelnav.mission.scenario import Recorder, Scenario
+
+NAME = "mission"
+PROGRESS_EVERY_S = 5.0
+
+
+def free_port() -> int:
+    """A TCP port on loopback that nothing listens on right now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class MissionRun:
+    """One scenario run: fleet up, goal sent at tick 0, recorder fed, fleet down."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        out: TextIO = sys.stdout,
+        quiet: bool = False,
+        fleet_output: TextIO | None = None,
+        rrd: str | None = None,
+    ) -> None:
+        self.scenario = scenario
+        self.out = out
+        self.quiet = quiet
+        self.keys = Keys(scenario.config.robot.name)
+        self.goal_id = f"{scenario.name}-{int(time.time())}"
+        self.recorder = Recorder(self.goal_id)
+        self.done = threading.Event()
+        self.port = free_port()
+        self.fleet_output = fleet_output
+        self.rrd = rrd
+        self.supervisor: Supervisor | None = None
+        self._goal_sent = False
+        self._last_progress = -PROGRESS_EVERY_S
+        self._last_status: NavStatus | None = None
+        self._bus: Bus | None = None
+
+    def run(self) -> dict[str, Any]:
+        """Run to the end and return the report."""
+        cfg = self.scenario.config
+        endpoint = f"tcp/127.0.0.1:{self.port}"
+        wall_start = time.monotonic()
+        with tempfile.TemporaryDirectory(prefix="wheelnav-mission-") as tmp:
+            cfg_path = Path(tmp) / "fleet.yaml"
+            cfg_path.write_text(yaml.safe_dump(config_mod.to_dict(cfg), sort_keys=False))
+            bus = open_router(endpoint)
+            self._wire(bus)
+            specs = services_for("sim") + ([viz_recorder(self.rrd)] if self.rrd else [])
+            out = self.fleet_output or (_Null() if self.quiet else self.out)
+            self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
+            self._say(f"scenario {self.scenario.name}: fleet starting on {endpoint}")
+            self.supervisor.start()
+            try:
+                missing = wait_ready(
+                    bus,
+                    self.keys,
+                    [s.name for s in specs],
+                    cfg.launcher.ready_timeout_s,
+                    self.done,
+                    supervisor=self.supervisor,
+                )
+                if missing:
+                    self.recorder.state = "failed"
+                    failed = self.supervisor.failed()
+                    self.recorder.reason = (
+                        "; ".join(f"{name}: {self.supervisor.last_error(name)}" for name in failed)
+                        if failed
+                        else f"services not up: {', '.join(missing)}"
+                    )
+                else:
+                    bus.declare_alive(self.keys.key("alive", service=NAME))
+                    wall_limit = self.scenario.time_limit_s * 20 + 120
+                    if not self.done.wait(wall_limit):
+                        self.recorder.state = "failed"
+                        self.recorder.reason = f"no result within {wall_limit:.0f} s of wall time"
+            finally:
+                self.supervisor.stop()
+                bus.close()
+        report = self.recorder.report(self.scenario.name, time.monotonic() - wall_start)
+        return report
+
+    def _wire(self, bus: Bus) -> None:
+        keys = self.keys
+        participant = Participant(
+            NAME, self._stage(), 10.0, self._step, lambda ack: bus.publish(keys.ack, ack)
+        )
+        self._bus = bus
+        bus.subscribe(keys.clock, Clock, participant.on_clock)
+        bus.subscribe(keys.nav_status, NavStatus, self._on_status)
+        bus.subscribe(keys.sim_status, SimStatus, self.recorder.on_sim_status)
+        bus.subscribe(
+            keys.ground_truth,
+            Odometry,
+            self._on_truth,
+        )
+        bus.subscribe(
+            keys.nav_route,
+            RouteReply,
+            lambda m: self.recorder.checkpoints.on_route(m.checkpoints, self.recorder.sim_time_s),
+        )
+        bus.subscribe(
+            keys.follow_status,
+            FollowStatus,
+            lambda m: self.recorder.on_follow(m.state, m.cross_track, m.precise),
+        )
+        bus.subscribe(
+            keys.pose,
+            PoseEstimate,
+            lambda m: self.recorder.on_pose(m.stamp, m.pose.x, m.pose.y, m.pose.theta),
+        )
+        bus.subscribe(keys.key("events"), Event, self._on_event)
+        bus.subscribe(
+            keys.key("door_state"),
+            DoorState,
+            lambda m: self.recorder.checkpoints.on_door_state(
+                m.stamp, m.door_name, m.current_mode == DoorMode.OPEN
+            ),
+        )
+
+    def _stage(self) -> int:
+        stages = self.scenario.config.sim.lockstep_stages
+        return next((i for i, names in enumerate(stages) if NAME in names), 0)
+
+    def _step(self, clock: Clock) -> None:
+        if not self._goal_sent:
+            s = self.scenario
+            self._bus.publish(
+                self.keys.nav_goal, NavGoal(clock.stamp, self.goal_id, s.goal, s.place)
+            )
+            self._goal_sent = True
+            self._say(f"t={clock.stamp:6.1f} s  goal sent: {s.place or s.goal}")
+        self.recorder.on_time(clock.stamp, self.scenario.time_limit_s)
+        if clock.stamp - self._last_progress >= PROGRESS_EVERY_S:
+            self._last_progress = clock.stamp
+            st = self._last_status
+            if st is not None:
+                self._say(
+                    f"t={clock.stamp:6.1f} s  {st.state:9s} phase={st.phase or '-':7s} "
+                    f"progress={100 * st.progress:5.1f} %  {st.reason}"
+                )
+        if self.recorder.finished:
+            self.done.set()
+
+    def _on_status(self, msg: NavStatus) -> None:
+        self._last_status = msg
+        if msg.goal_id == self.goal_id and not self.recorder.finished:
+            self.recorder.checkpoints.on_status(msg.stamp, msg.action, msg.phase)
+        self.recorder.on_status(msg)
+        if self.recorder.finished:
+            self.done.set()
+
+    def _on_truth(self, m: Odometry) -> None:
+        self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp)
+        if not self.recorder.finished:
+            self.recorder.checkpoints.on_truth(
+                m.stamp, m.pose.x, m.pose.y, m.pose.theta, m.v, m.pose.floor
+            )
+
+    def _on_event(self, msg: Event) -> None:
+        self.recorder.events.append(
+            {"t": round(msg.stamp, 3), "source": msg.source, "kind": msg.kind, "detail": msg.detail}
+        )
+
+    def _say(self, text: str) -> None:
+        if not self.quiet:
+            self.out.write(f"[mission] {text}\n")
+            self.out.flush()
+
+
+class _Null:
+    def write(self, _text: str) -> None:
+        pass
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+
+def format_report(report: dict[str, Any]) -> str:
+    """A short human-readable summary of a report."""
+    lines = [
+        f"mission {report['scenario']}: {'SUCCESS' if report['success'] else 'FAILURE'}"
+        f" ({report['reason']})",
+        f"  sim time {report['sim_time_s']:.1f} s, wall time {report['wall_time_s']:.1f} s, "
+        f"path {report['path_length_m']:.2f} m",
+        f"  collisions {report['collisions']}, min clearance "
+        f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m",
+    ]
+    if report.get("cross_track_rms_m") is not None:
+        lines.append(f"  cross-track error on legs: RMS {100 * report['cross_track_rms_m']:.1f} cm")
+    loc = report["localisation_error"]
+    if loc["samples"]:
+        lines.append(
+            f"  localisation error: RMS {100 * loc['rms_m']:.1f} cm, max "
+            f"{100 * loc['max_m']:.1f} cm, heading RMS {loc['rms_deg']:.2f} deg"
+        )
+    for c in report.get("checkpoints", []):
+        lines.append("  " + format_checkpoint(c))
+    for e in report.get("events", []):
+        if e["kind"] in ("safety_stop", "safety_clear"):
+            lines.append(f"  {e['kind']:12s} t={e['t']:6.1f} s  {e['detail']}")
+    for fallback in report.get("fallbacks", []):
+        lines.append(f"  fallback: {fallback}")
+    for p in report["phases"]:
+        end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
+        lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")
+    return "\n".join(lines)
+
+
+def format_checkpoint(c: dict[str, Any]) -> str:
+    """One line per checkpoint: result, Phase 0 figures, wait, crossing, phase times."""
+    head = f"{c['kind']:8s} {c['id']:14s} {c.get('result', 'passed'):9s}"
+    corr = c.get("correction_s")
+    fix = f"position error {c['position_error_m']} m, heading {c['heading_error_deg']} deg" + (
+        f" after {corr} s" if corr is not None else ""
+    )
+    extra = (
+        f"lateral offset {c['lateral_offset_m']} m"
+        if c["kind"] == "door"
+        else f"to floor {c['to_floor']}"
+    )
+    if c.get("closing_at_s") is not None:
+        extra += f", door closing at {c['closing_at_s']} s: stopped within {c['closing_stop_m']} m"
+    phases = " / ".join(f"{k} {v}" for k, v in c.get("phases", {}).items())
+    return f"{head} {fix}, wait {c['wait_s']} s, {extra}" + (f"; {phases} s" if phases else "")
+
+
+def write_report(report: dict[str, Any], path: str | Path) -> None:
+    Path(path).write_text(json.dumps(report, indent=2) + "\n")
