@@ -23,6 +23,7 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	$(PY) -m wheelnav.import_rules
 
 format: $(STAMP)
 	$(VENV)/bin/ruff check --fix .

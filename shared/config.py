@@ -62,6 +62,15 @@ class RobotConfig:
     max_turn_accel: float = field(default=2.0, metadata=check(_positive))
     estop_decel: float = field(default=4.0, metadata=check(_positive))
     lidar_height_m: float = field(default=1.5, metadata=check(_positive))
+    side_margin_m: float = field(default=0.05, metadata=check(_non_negative))
+
+    @property
+    def clearance_half_width_m(self) -> float:
+        """Half the width of the strip the chair needs: its body plus ``side_margin_m`` a side.
+
+        The controller's stop zone and the navigator's doorway lane check both use it.
+        """
+        return self.footprint.width / 2 + self.side_margin_m
 
 
 @dataclass

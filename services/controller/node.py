@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> None:
                     fresh,
                     scan.stamp if scan is not None else None,
                     scan.points if scan is not None else None,
-                    cfg.robot.footprint,
+                    cfg.robot,
                     cc,
                     cfg.localisation.scan_band_m,
                 )

@@ -3,25 +3,27 @@
 A command is replaced by zero (and the reason reported as the follow state) when the
 pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when a LiDAR
 point lies in the stop zone: the strip ``stop_distance_m`` long in front of the
-footprint (behind it when reversing), as wide as the chair. Points beside the chair (a
-door's jambs) do not stop it. Pure: points come in the robot frame.
+footprint (behind it when reversing), as wide as the chair plus ``robot.side_margin_m``
+each side. Points beside the chair (a door's jambs) do not stop it. Pure: points come in the robot frame.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from shared.config import ControllerConfig, Footprint
+from shared.config import ControllerConfig, RobotConfig
 
 
 def stop_zone_hit(
-    points: np.ndarray, fp: Footprint, v: float, stop_distance_m: float, band_m: float
+    points: np.ndarray, robot: RobotConfig, v: float, stop_distance_m: float, band_m: float
 ) -> bool:
-    """True if a point (N, 3, robot frame) is in the strip the chair is about to drive into."""
+    """True if a point (N, 3, robot frame) is in the strip the chair is about to drive into
+    (``robot.clearance_half_width_m`` each side of its centre line)."""
     if points is None or len(points) == 0 or abs(v) < 1e-3:
         return False
+    fp = robot.footprint
     pts = points[np.abs(points[:, 2]) < band_m]
-    lateral = np.abs(pts[:, 1]) <= fp.width / 2 + 0.02
+    lateral = np.abs(pts[:, 1]) <= robot.clearance_half_width_m
     if v > 0:
         ahead = (pts[:, 0] >= fp.front) & (pts[:, 0] <= fp.front + stop_distance_m)
     else:
@@ -37,7 +39,7 @@ def guard(
     pose_ok: bool,
     scan_stamp: float | None,
     scan_points: np.ndarray | None,
-    fp: Footprint,
+    robot: RobotConfig,
     cfg: ControllerConfig,
     band_m: float,
 ) -> tuple[float, float, str]:
@@ -48,6 +50,6 @@ def guard(
         return v, w, state
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
-    if stop_zone_hit(scan_points, fp, v, cfg.stop_distance_m, band_m):
+    if stop_zone_hit(scan_points, robot, v, cfg.stop_distance_m, band_m):
         return 0.0, 0.0, "obstacle"
     return v, w, state

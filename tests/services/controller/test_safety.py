@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from services.controller.safety import guard, stop_zone_hit
-from shared.config import ControllerConfig, Footprint
+from shared.config import ControllerConfig, RobotConfig
 
-FP = Footprint()
+ROBOT = RobotConfig()
 CFG = ControllerConfig()
 
 
@@ -16,16 +16,16 @@ def pts(*xy: tuple[float, float]) -> np.ndarray:
 
 
 def test_stop_zone_is_the_strip_ahead_not_beside() -> None:
-    assert stop_zone_hit(pts((0.9, 0.0)), FP, 0.3, 0.25, 0.5)  # right in front
-    assert not stop_zone_hit(pts((0.9, 0.5)), FP, 0.3, 0.25, 0.5)  # a door jamb, beside
-    assert not stop_zone_hit(pts((1.2, 0.0)), FP, 0.3, 0.25, 0.5)  # farther than the strip
-    assert not stop_zone_hit(pts((0.9, 0.0)), FP, -0.2, 0.25, 0.5)  # reversing: look behind
-    assert stop_zone_hit(pts((-0.45, 0.1)), FP, -0.2, 0.25, 0.5)
-    assert not stop_zone_hit(pts((0.9, 0.0)), FP, 0.0, 0.25, 0.5)  # standing still
+    assert stop_zone_hit(pts((0.9, 0.0)), ROBOT, 0.3, 0.25, 0.5)  # right in front
+    assert not stop_zone_hit(pts((0.9, 0.5)), ROBOT, 0.3, 0.25, 0.5)  # a door jamb, beside
+    assert not stop_zone_hit(pts((1.2, 0.0)), ROBOT, 0.3, 0.25, 0.5)  # farther than the strip
+    assert not stop_zone_hit(pts((0.9, 0.0)), ROBOT, -0.2, 0.25, 0.5)  # reversing: look behind
+    assert stop_zone_hit(pts((-0.45, 0.1)), ROBOT, -0.2, 0.25, 0.5)
+    assert not stop_zone_hit(pts((0.9, 0.0)), ROBOT, 0.0, 0.25, 0.5)  # standing still
 
 
 def test_guard_reasons() -> None:
-    ok = dict(now=10.0, scan_points=pts((3.0, 0.0)), fp=FP, cfg=CFG, band_m=0.5)
+    ok = dict(now=10.0, scan_points=pts((3.0, 0.0)), robot=ROBOT, cfg=CFG, band_m=0.5)
     assert guard(0.3, 0.1, "following", pose_ok=True, scan_stamp=9.9, **ok) == (
         0.3,
         0.1,
