@@ -10,7 +10,7 @@ from pathlib import Path
 
 from shared import config, topics
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 TABLES = {
     "ARCHITECTURE.md": ("| name | key | message |", topics.markdown_table),
     "configuration.md": ("| key | type | default |", config.markdown_table),
