@@ -33,10 +33,6 @@ class NoPath(PlanError):
     code = "NO_PATH"
 
 
-class CrossFloorUnsupported(PlanError):
-    code = "CROSS_FLOOR"
-
-
 class BadRequest(PlanError):
     code = "BAD_REQUEST"
 
@@ -51,7 +47,6 @@ CODES: dict[str, type[PlanError]] = {
         StartOccupied,
         GoalOccupied,
         NoPath,
-        CrossFloorUnsupported,
         BadRequest,
     )
 }

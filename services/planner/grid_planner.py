@@ -23,7 +23,7 @@ from shared.site import GridMap, Site, SiteError
 
 @dataclass
 class Plan:
-    """A planned route on one floor: waypoints (N, 2), speeds (N,), and its length."""
+    """A planned path on one floor (a leg of a route): waypoints (N, 2), speeds (N,), length."""
 
     floor: str
     waypoints: np.ndarray

@@ -1,12 +1,19 @@
-"""The room graph of a floor: rooms found in the map, joined by doors, declared ones winning.
+"""The rooms and doors of a floor of a site: segmented rooms, joined by named doors and lifts.
 
-Rooms and doorways come from :func:`services.planner.rooms.segment_rooms`. A detected
-doorway within ``match_m`` of a declared door takes that door's id, type and exact
-segment; a declared door that was not detected still joins the rooms on either side of
-it. A lift car is a room of the map: its node gets ``lift=<id>`` and the edge through
+The site-level view of a floor's rooms, for people and tools (what a command listing a
+site's rooms would print) and for tests of the segmentation on the bundled sites. Routing
+does not use it: the route planner runs one A* over the whole floor and makes checkpoints
+of the declared doors the path crosses (:mod:`services.planner.routes`), so it never
+needs to match a detected doorway to a declared door.
+
+Rooms and doorways come from :func:`services.planner.room_segmentation.segment_rooms`. A
+detected doorway within ``match_m`` of a declared door takes that door's id, type and
+exact segment; a declared door that was not detected still joins the rooms on either side
+of it. A lift car is a room of the map: its node gets ``lift=<id>`` and the edge through
 its car door is of kind ``elevator`` (an undetected car door still joins the car to the
 room in front of it). Edge attribute ``door``: the door or lift id (``doorway_<n>`` for
-undeclared ones); ``kind``: door or elevator; ``width``.
+undeclared ones); ``kind``: door or elevator; ``type``: the declared door's type (""
+otherwise); ``width``.
 """
 
 from __future__ import annotations
@@ -15,7 +22,7 @@ import math
 
 import networkx as nx
 
-from services.planner.rooms import RoomMap, segment_rooms
+from services.planner.room_segmentation import RoomMap, segment_rooms
 from shared.site import Site
 
 

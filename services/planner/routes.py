@@ -11,6 +11,11 @@ the route avoids it or there is none.
 
 Between floors, every available elevator serving both floors is tried (leg to its entry
 on the start floor, a ride, leg from its exit on the goal floor) and the cheapest kept.
+
+Rooms serve two ends: each floor is segmented once (:mod:`services.planner.room_segmentation`)
+to tag every waypoint as in a room or a corridor, and on a floor whose site declares no
+doors, the doors detected along the plain A* path (:mod:`services.planner.path_doors`)
+stand in for the declared ones.
 """
 
 from __future__ import annotations
@@ -22,24 +27,10 @@ import numpy as np
 
 from services.planner import errors
 from services.planner.grid_planner import Plan, Planner
-from services.planner.rooms import RoomMap, detect_doors_along_path, segment_rooms
+from services.planner.path_doors import detect_doors_along_path
+from services.planner.room_segmentation import RoomMap, segment_rooms
 from shared.config import PlannerConfig
 from shared.site import Door, Site
-
-
-def corridor_rooms(rooms: RoomMap, elongation: float = 3.0) -> set[int]:
-    """Corridors: rooms whose bounding box is ``elongation`` times longer than wide."""
-    out = set()
-    for room in rooms.graph.nodes:
-        cells = np.argwhere(rooms.labels == room)
-        if len(cells) == 0:
-            continue
-        extent = (cells.max(axis=0) - cells.min(axis=0) + 1) * rooms.resolution
-        long, short = max(extent), max(min(extent), 1e-6)
-        if long / short >= elongation:
-            out.add(room)
-    return out
-
 
 Pose = tuple[float, float, float]
 Segment = tuple[tuple[float, float], tuple[float, float]]
@@ -75,37 +66,6 @@ class Route:
         )
 
 
-def door_geometry(door: Door) -> tuple[np.ndarray, np.ndarray, float]:
-    """Centre, unit normal (left of p1 -> p2) and width of a door segment."""
-    p1, p2 = np.asarray(door.p1, float), np.asarray(door.p2, float)
-    along = p2 - p1
-    width = float(np.linalg.norm(along))
-    normal = np.array([-along[1], along[0]]) / width
-    return (p1 + p2) / 2, normal, width
-
-
-def crossings(path: np.ndarray, doors: list[Door]) -> list[tuple[float, Door, int]]:
-    """Doors whose segment the polyline ``path`` crosses: (arc position, door, +1/-1 side)."""
-    found = []
-    a, b = path[:-1], path[1:]
-    seg_start = np.concatenate([[0.0], np.cumsum(np.linalg.norm(b - a, axis=1))])[:-1]
-    for door in doors:
-        p, q = np.asarray(door.p1, float), np.asarray(door.p2, float)
-        d = b - a
-        e = q - p
-        denom = d[:, 0] * e[1] - d[:, 1] * e[0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = ((p[0] - a[:, 0]) * e[1] - (p[1] - a[:, 1]) * e[0]) / denom
-            u = ((p[0] - a[:, 0]) * d[:, 1] - (p[1] - a[:, 1]) * d[:, 0]) / denom
-        hit = np.flatnonzero((np.abs(denom) > 1e-12) & (t >= 0) & (t < 1) & (u >= 0) & (u <= 1))
-        if len(hit):
-            i = int(hit[0])
-            _centre, normal, _w = door_geometry(door)
-            side = 1 if float(np.dot(d[i], normal)) > 0 else -1
-            found.append((float(seg_start[i] + t[i] * np.linalg.norm(d[i])), door, side))
-    return sorted(found, key=lambda item: item[0])
-
-
 class RoutePlanner:
     """Routes on a site, with doors and elevators that can be marked unavailable."""
 
@@ -124,17 +84,14 @@ class RoutePlanner:
         self.corridors = {name: corridor_rooms(rm) for name, rm in self.rooms.items()}
 
     def set_door_blocked(self, door_id: str, blocked: bool) -> None:
-        if door_id not in {d.id for d in self.site.doors} | {e.id for e in self._elevators()}:
+        if door_id not in {d.id for d in self.site.doors} | {e.id for e in self.site.elevators}:
             raise errors.BadRequest(f"no door or elevator called {door_id!r} in this site")
         target = (
             self.unavailable_lifts
-            if door_id in {e.id for e in self._elevators()}
+            if door_id in {e.id for e in self.site.elevators}
             else self.blocked_doors
         )
         (target.add if blocked else target.discard)(door_id)
-
-    def _elevators(self) -> list:
-        return list(getattr(self.site, "elevators", []) or [])
 
     def request(
         self,
@@ -175,7 +132,7 @@ class RoutePlanner:
         best: Route | None = None
         best_cost = math.inf
         reasons = []
-        for lift in self._elevators():
+        for lift in self.site.elevators:
             if start_floor not in lift.floors or goal_floor not in lift.floors:
                 continue
             if lift.id in self.unavailable_lifts:
@@ -236,7 +193,7 @@ class RoutePlanner:
         open_doors = [d for d in doors if d.id not in self.blocked_doors]
         crossed = crossings(whole.waypoints, open_doors)
         if not crossed:
-            self.tag(whole, "goal")
+            self._tag_zones(whole, "goal")
             return Route([whole])
         closed = [(d.p1, d.p2) for d in doors]
         checkpoints = [self._door_checkpoint(door, side, floor) for _s, door, side in crossed]
@@ -278,10 +235,10 @@ class RoutePlanner:
         """A leg that ends standing still at ``b`` (a door's approach pose or the goal),
         with a zone tag per waypoint (``end`` near its end, else room or corridor)."""
         plan = self.planner.plan(a, b, floor, closed)
-        self.tag(plan, end)
+        self._tag_zones(plan, end)
         return plan
 
-    def tag(self, plan: Plan, end: str) -> None:
+    def _tag_zones(self, plan: Plan, end: str) -> None:
         """Zone tags: ``end`` within the slow-down radius of the leg's end, else the kind of
         room the waypoint is in (corridor or room)."""
         rooms, corridors = self.rooms[plan.floor], self.corridors[plan.floor]
@@ -321,3 +278,48 @@ class RoutePlanner:
         raise errors.NoPath(
             f"door {door_id}: no free pose within {distance:.1f} m of it on one of its sides"
         )
+
+
+def door_geometry(door: Door) -> tuple[np.ndarray, np.ndarray, float]:
+    """Centre, unit normal (left of p1 -> p2) and width of a door segment."""
+    p1, p2 = np.asarray(door.p1, float), np.asarray(door.p2, float)
+    along = p2 - p1
+    width = float(np.linalg.norm(along))
+    normal = np.array([-along[1], along[0]]) / width
+    return (p1 + p2) / 2, normal, width
+
+
+def crossings(path: np.ndarray, doors: list[Door]) -> list[tuple[float, Door, int]]:
+    """Doors whose segment the polyline ``path`` crosses: (arc position, door, +1/-1 side)."""
+    found = []
+    a, b = path[:-1], path[1:]
+    seg_start = np.concatenate([[0.0], np.cumsum(np.linalg.norm(b - a, axis=1))])[:-1]
+    for door in doors:
+        p, q = np.asarray(door.p1, float), np.asarray(door.p2, float)
+        d = b - a
+        e = q - p
+        denom = d[:, 0] * e[1] - d[:, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((p[0] - a[:, 0]) * e[1] - (p[1] - a[:, 1]) * e[0]) / denom
+            u = ((p[0] - a[:, 0]) * d[:, 1] - (p[1] - a[:, 1]) * d[:, 0]) / denom
+        hit = np.flatnonzero((np.abs(denom) > 1e-12) & (t >= 0) & (t < 1) & (u >= 0) & (u <= 1))
+        if len(hit):
+            i = int(hit[0])
+            _centre, normal, _w = door_geometry(door)
+            side = 1 if float(np.dot(d[i], normal)) > 0 else -1
+            found.append((float(seg_start[i] + t[i] * np.linalg.norm(d[i])), door, side))
+    return sorted(found, key=lambda item: item[0])
+
+
+def corridor_rooms(rooms: RoomMap, elongation: float = 3.0) -> set[int]:
+    """Corridors: rooms whose bounding box is ``elongation`` times longer than wide."""
+    out = set()
+    for room in rooms.graph.nodes:
+        cells = np.argwhere(rooms.labels == room)
+        if len(cells) == 0:
+            continue
+        extent = (cells.max(axis=0) - cells.min(axis=0) + 1) * rooms.resolution
+        long, short = max(extent), max(min(extent), 1e-6)
+        if long / short >= elongation:
+            out.add(room)
+    return out

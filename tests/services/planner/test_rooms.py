@@ -10,7 +10,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from services.planner.grid_astar import astar
-from services.planner.rooms import RoomMap, detect_doors_along_path, segment_rooms
+from services.planner.path_doors import detect_doors_along_path
+from services.planner.room_segmentation import RoomMap, segment_rooms
 from shared.site import load_site
 from sim.sitegen import draw
 from tests.conftest import ROOT

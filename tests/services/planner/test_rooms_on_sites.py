@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from services.planner.rooms import segment_rooms
+from services.planner.room_segmentation import segment_rooms
 from shared.site import load_site
 from tests.conftest import ROOT
 
