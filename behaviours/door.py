@@ -13,7 +13,7 @@ from py_trees.common import Status
 
 from behaviours.fleet import FleetBehaviour, OpenInScans
 from behaviours.motion import dock_path
-from shared.messages import DoorMode
+from shared.messages import DoorMode, Phase
 
 
 class RequestDoor(FleetBehaviour):
@@ -34,13 +34,13 @@ class WaitForDoorOpen(FleetBehaviour):
     """RUNNING until the door is open by both accounts, then SUCCESS.
 
     The building must report ``door_id`` OPEN and, when ``centre`` is given, the LiDAR
-    check must have said "open" in ``scans`` consecutive new scans. CLOSED, MOVING,
-    OFFLINE, UNKNOWN, no report, and a LiDAR "unknown" are all "not open". The timeout
-    above it bounds the wait. ``stop_on_start`` (default) stops the chair first; idle
-    motion running beside it sets it False.
+    check (of a door ``width_m`` wide, 0 if unknown) must have said "open" in ``scans``
+    consecutive new scans. CLOSED, MOVING, OFFLINE, UNKNOWN, no report, and a LiDAR
+    "unknown" are all "not open". The timeout above it bounds the wait. ``stop_on_start``
+    (default) stops the chair first; idle motion running beside it sets it False.
     """
 
-    phase = "verify"
+    phase = Phase.VERIFY
 
     def __init__(
         self,
@@ -48,10 +48,12 @@ class WaitForDoorOpen(FleetBehaviour):
         centre: tuple[float, float] | None = None,
         scans: int = 3,
         stop_on_start: bool = True,
+        width_m: float = 0.0,
     ) -> None:
         super().__init__(f"WaitForDoorOpen {door_id}")
         self.door_id = door_id
         self.centre = centre
+        self.width_m = width_m
         self.stop_on_start = stop_on_start
         self.lidar = OpenInScans(scans)
 
@@ -64,7 +66,7 @@ class WaitForDoorOpen(FleetBehaviour):
     def update(self) -> Status:
         mode = self.fleet.door_mode(self.door_id)
         lidar_ok = self.centre is None or self.lidar.update(
-            *self.fleet.lidar_door_state(*self.centre)
+            *self.fleet.lidar_door_state(*self.centre, self.width_m)
         )
         if mode == DoorMode.OPEN and lidar_ok:
             self.feedback_message = "open"
@@ -84,7 +86,7 @@ class IdleMotion(FleetBehaviour):
     stops the chair when it is stopped.
     """
 
-    phase = "verify"
+    phase = Phase.VERIFY
 
     def __init__(
         self,

@@ -9,7 +9,7 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from behaviours.fleet import FleetBehaviour, OpenInScans
-from shared.messages import LiftDoor, LiftMotion
+from shared.messages import LiftDoor, LiftMotion, Phase
 
 MODE_OFFLINE = 4  # rmf_lift_msgs LiftState.MODE_OFFLINE
 
@@ -28,12 +28,14 @@ class RequestLift(_LiftBehaviour):
     Always SUCCESS at once; WaitForLift reports whether the building obeyed.
     """
 
+    phase = Phase.ELEVATOR
+
     def __init__(self, lift_id: str, floor: str) -> None:
         super().__init__(f"Call {lift_id} to {floor}", lift_id)
         self.floor = floor
 
     def update(self) -> Status:
-        self.bb.phase = "elevator"
+        self.bb.phase = self.phase
         self.fleet.request_lift(self.lift_id, self.floor)
         self.feedback_message = f"requested floor {self.floor}"
         return Status.SUCCESS
@@ -42,12 +44,13 @@ class RequestLift(_LiftBehaviour):
 class WaitForLift(_LiftBehaviour):
     """RUNNING until the car stands at ``floor`` with its doors open for our session.
 
-    With ``door_xy`` (the car door's middle) the LiDAR must also see the doorway open in
-    ``scans`` consecutive new scans: ahead when the car arrives, behind the chair when
-    it stops at the destination (the VLP-16 sees all round). FAILURE at once when the
-    building reports the lift out of service (OFFLINE), naming it in ``/mission/blocked``
-    so the navigator can try another lift. A lift held by another session keeps it
-    RUNNING (busy) until the timeout above it fires.
+    With ``door_xy`` (the car door's middle; ``door_width_m`` wide, 0 if unknown) the
+    LiDAR must also see the doorway open in ``scans`` consecutive new scans: ahead when
+    the car arrives, behind the chair when it stops at the destination (the VLP-16 sees
+    all round). FAILURE at once when the building reports the lift out of service
+    (OFFLINE), naming it in ``/mission/blocked`` so the navigator can try another lift.
+    A lift held by another session keeps it RUNNING (busy) until the timeout above it
+    fires.
     """
 
     def __init__(
@@ -56,12 +59,14 @@ class WaitForLift(_LiftBehaviour):
         floor: str,
         door_xy: tuple[float, float] | None = None,
         scans: int = 3,
-        phase: str = "call",
+        phase: Phase = Phase.CALL,
+        door_width_m: float = 0.0,
     ) -> None:
         super().__init__(f"WaitForLift {lift_id} at {floor}", lift_id)
         self.floor = floor
         self.phase = phase
         self.door_xy = door_xy
+        self.door_width_m = door_width_m
         self.lidar = OpenInScans(scans)
 
     def initialise(self) -> None:
@@ -72,7 +77,7 @@ class WaitForLift(_LiftBehaviour):
         """The car door seen open (ahead or behind the chair) in ``scans`` new scans."""
         if self.door_xy is None:
             return True
-        return self.lidar.update(*self.fleet.lidar_door_state(*self.door_xy))
+        return self.lidar.update(*self.fleet.lidar_door_state(*self.door_xy, self.door_width_m))
 
     def update(self) -> Status:
         state = self.fleet.lift_state(self.lift_id)

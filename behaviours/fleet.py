@@ -17,6 +17,7 @@ from shared.messages import (
     LiftState,
     Odometry,
     Path,
+    Phase,
     Pose2D,
     PoseEstimate,
     RouteReply,
@@ -55,14 +56,16 @@ class Fleet(Protocol):
     def request_door(self, door_id: str, mode: int) -> None:
         """Ask the building to open or close ``door_id`` (a DoorMode value)."""
 
-    def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
-        """(stamp of the latest scan, "open" / "closed" / "unknown") for the door at (x, y)."""
+    def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
+        """(stamp of the latest scan, "open" / "closed" / "unknown") for the door centred at
+        (x, y), ``width_m`` wide (0: unknown)."""
 
     def lane_blocked(
-        self, door_xy: tuple[float, float], direction: float, lead_m: float
+        self, door_xy: tuple[float, float], direction: float, lead_m: float, width_m: float
     ) -> tuple[float, bool]:
         """(stamp of the latest scan, True if something stands in the chair's lane between
-        its leading edge ``lead_m`` ahead and the door plane, moving along ``direction``)."""
+        its leading edge ``lead_m`` ahead and the door plane, moving along ``direction``,
+        through a door ``width_m`` wide (0: unknown); a jamb is not in the lane)."""
 
     def lift_state(self, lift_id: str) -> LiftState | None:
         """The building's last LiftState of ``lift_id``."""
@@ -90,10 +93,11 @@ class FleetBehaviour(py_trees.behaviour.Behaviour):
     """Base of mission behaviours: reaches the fleet through ``setup(fleet=...)``.
 
     Registers WRITE access to ``/mission/phase``, ``/mission/failure`` and
-    ``/mission/blocked`` (the checkpoint a failure is about, for re-planning).
+    ``/mission/blocked`` (the checkpoint a failure is about, for re-planning). ``phase``
+    is the :class:`~shared.messages.Phase` a behaviour writes when it starts.
     """
 
-    phase = ""
+    phase: Phase = Phase.IDLE
 
     def __init__(self, name: str) -> None:
         super().__init__(name)

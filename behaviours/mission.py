@@ -26,8 +26,11 @@ Phase 4 (completion) is the door's Sequence succeeding. A door or lift whose wai
 out is named in ``/mission/blocked``: the navigator then plans around it.
 
 Blackboard (namespace ``/mission``): ``goal`` (Pose2D or None), ``place`` (str),
-``route`` (RouteReply), ``action`` (str), ``phase`` (str), ``failure`` (str),
-``blocked`` (str).
+``route`` (RouteReply), ``action`` (str), ``phase`` (:class:`~shared.messages.Phase`),
+``failure`` (str), ``blocked`` (str).
+
+The route's steps (legs, doors, elevators) are the children of the sequence named
+:data:`DRIVE`; :func:`route_steps` finds them in a route tree.
 """
 
 from __future__ import annotations
@@ -45,8 +48,10 @@ from behaviours.fleet import NS, FleetBehaviour
 from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
 from behaviours.safety import SafetyGate
 from behaviours.timeouts import Timeout
-from shared.config import NavigatorConfig
-from shared.messages import DoorMode, Path, RouteReply
+from shared.config import FleetConfig, NavigatorConfig
+from shared.messages import DoorMode, Path, Phase, RouteReply
+
+DRIVE = "Drive"  # the route tree's sequence of steps
 
 
 class ComputeRoute(FleetBehaviour):
@@ -57,7 +62,7 @@ class ComputeRoute(FleetBehaviour):
     ``/mission/goal`` and ``/mission/place``.
     """
 
-    phase = "plan"
+    phase = Phase.PLAN
 
     def __init__(self, name: str = "ComputeRoute") -> None:
         super().__init__(name)
@@ -133,13 +138,18 @@ def create_plan_tree(
 @dataclass(frozen=True)
 class EntryParams:
     """What the door and elevator subtrees need to know: the navigator's config, the door
-    speed and the chair's footprint (front and rear of the pose point, half width)."""
+    speed and the chair's footprint (front and rear of the pose point)."""
 
     nav: NavigatorConfig
     door_speed: float
     front_m: float
     rear_m: float
-    half_width_m: float
+
+    @classmethod
+    def from_config(cls, cfg: FleetConfig) -> EntryParams:
+        """The navigator section, the planner's door speed and the robot's footprint."""
+        fp = cfg.robot.footprint
+        return cls(cfg.navigator, cfg.planner.door_speed, fp.front, fp.rear)
 
     @property
     def centre_offset_m(self) -> float:
@@ -156,7 +166,7 @@ def _correct(cp, name: str, p: EntryParams, clock, record) -> py_trees.behaviour
     a, nav = cp.approach, p.nav
     dock = DockAt(
         f"Correct {cp.id}",
-        "correct",
+        Phase.CORRECT,
         cp.floor,
         (a.x, a.y),
         a.theta,
@@ -176,7 +186,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
     centre = (cp.centre.x, cp.centre.y) if cp.centre else None
     turn = DockAt(
         f"Turn {cp.id}",
-        "turn",
+        Phase.TURN,
         cp.floor,
         (a.x, a.y),
         None,
@@ -199,18 +209,20 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
             f"Open {cp.id}",
             policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
             children=[
-                WaitForDoorOpen(cp.id, centre, nav.door_scans, stop_on_start=False),
+                WaitForDoorOpen(
+                    cp.id, centre, nav.door_scans, stop_on_start=False, width_m=cp.width_m
+                ),
                 IdleMotion(
                     cp.id, cp.floor, (a.x, a.y, a.theta), nav.idle_speed, nav.idle_amplitude_m
                 ),
             ],
         )
     else:
-        wait = WaitForDoorOpen(cp.id, centre, nav.door_scans)
+        wait = WaitForDoorOpen(cp.id, centre, nav.door_scans, width_m=cp.width_m)
     through = DriveThrough(
         f"Pass {cp.id}",
         f"{route_id}.door.{cp.id}",
-        "pass",
+        Phase.PASS,
         cp.floor,
         (a.x, a.y),
         (e.x, e.y),
@@ -219,6 +231,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
         p.front_m,
         door_id=cp.id,
         overrun_m=nav.pass_overrun_m,
+        door_width_m=cp.width_m,
     )
     steps += [
         Timeout(f"Phase 2 {cp.id}", wait, nav.door_timeout_s, clock, _blocking(record, cp.id)),
@@ -250,7 +263,7 @@ def _elevator_steps(
     drive_in = DriveThrough(
         f"Drive into {cp.id}",
         f"{route_id}.lift.{cp.id}.in",
-        "enter",
+        Phase.ENTER,
         cp.floor,
         tuple(start),
         tuple(inside),
@@ -258,11 +271,12 @@ def _elevator_steps(
         door,
         p.front_m,
         overrun_m=0.0,
+        door_width_m=cp.width_m,
     )
     back_out = DriveThrough(
         f"Back out of {cp.id}",
         f"{route_id}.lift.{cp.id}.out",
-        "exit",
+        Phase.EXIT,
         cp.to_floor,
         tuple(inside),
         out,
@@ -271,6 +285,7 @@ def _elevator_steps(
         p.rear_m,
         reverse=True,
         overrun_m=nav.pass_overrun_m,
+        door_width_m=cp.width_m,
     )
     blocked = _blocking(record, cp.id)
     steps = [
@@ -278,7 +293,7 @@ def _elevator_steps(
         _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
         Timeout(
             f"Arrive {cp.id}",
-            WaitForLift(cp.id, cp.floor, door, nav.door_scans),
+            WaitForLift(cp.id, cp.floor, door, nav.door_scans, door_width_m=cp.width_m),
             nav.lift_timeout_s,
             clock,
             blocked,
@@ -287,7 +302,9 @@ def _elevator_steps(
         RequestLift(cp.id, cp.to_floor),
         Timeout(
             f"Ride {cp.id}",
-            WaitForLift(cp.id, cp.to_floor, door, nav.door_scans, phase="ride"),
+            WaitForLift(
+                cp.id, cp.to_floor, door, nav.door_scans, Phase.RIDE, door_width_m=cp.width_m
+            ),
             nav.lift_timeout_s,
             clock,
             record,
@@ -340,6 +357,15 @@ def create_route_tree(
             steps.append(_door_steps(cp, route_id, params, clock, record))
         else:
             steps.append(_elevator_steps(cp, route_id, params, clock, record))
-    drive = py_trees.composites.Sequence("Drive", memory=True, children=steps)
+    drive = py_trees.composites.Sequence(DRIVE, memory=True, children=steps)
     safety = SafetyGate("Safety", drive, clock, nav.safety_timeout_s, record)
     return py_trees.composites.Selector("Route", memory=True, children=[safety, _safe_stop()])
+
+
+def route_steps(root: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Behaviour]:
+    """The steps of a route tree, in order (its legs, doors and elevators): the children of
+    the sequence named :data:`DRIVE`. Empty for a tree without one (the plan tree)."""
+    for b in root.iterate():
+        if b.name == DRIVE and isinstance(b, py_trees.composites.Sequence):
+            return list(b.children)
+    return []

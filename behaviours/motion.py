@@ -14,7 +14,7 @@ from py_trees.common import Status
 
 from behaviours.fleet import FleetBehaviour
 from shared.geometry import angle_between
-from shared.messages import DoorMode, Path
+from shared.messages import DoorMode, Path, Phase
 
 MOVING_M_S = 0.01  # odometry speeds above these: the chair is still moving
 MOVING_RAD_S = 0.02
@@ -29,9 +29,9 @@ class FollowPath(FleetBehaviour):
     stops the chair.
     """
 
-    phase = "follow"
+    phase = Phase.FOLLOW
 
-    def __init__(self, path: Path, name: str = "", phase: str = "follow") -> None:
+    def __init__(self, path: Path, name: str = "", phase: Phase = Phase.FOLLOW) -> None:
         super().__init__(name or f"Follow {path.path_id}")
         self.path = path
         self.phase = phase
@@ -78,7 +78,7 @@ class FollowPath(FleetBehaviour):
 class StopChair(FleetBehaviour):
     """Command the controller to drop its path (zero speed). Always SUCCESS at once."""
 
-    phase = "stop"
+    phase = Phase.STOP
 
     def __init__(self, name: str = "StopChair") -> None:
         super().__init__(name)
@@ -114,7 +114,7 @@ class DockAt(FleetBehaviour):
     def __init__(
         self,
         name: str,
-        phase: str,
+        phase: Phase,
         floor: str,
         target: tuple[float, float],
         heading: float | None,
@@ -230,16 +230,16 @@ class DriveThrough(FollowPath):
     past the end, so the controller does not stop early; it is a fallback end only.
 
     It holds (chair stopped, path resent when clear) while the lane ahead is blocked by
-    LiDAR (a leaf closing in front of the chair: see
-    :func:`services.navigator.door_check.lane_blocked`) or, for a door, while the
-    building stops reporting the door OPEN.
+    LiDAR (a leaf closing in front of the chair, in a doorway ``door_width_m`` wide, 0 if
+    unknown: see :func:`services.navigator.door_check.lane_blocked`) or, for a door, while
+    the building stops reporting the door OPEN.
     """
 
     def __init__(
         self,
         name: str,
         path_id: str,
-        phase: str,
+        phase: Phase,
         floor: str,
         start: tuple[float, float],
         end: tuple[float, float],
@@ -250,6 +250,7 @@ class DriveThrough(FollowPath):
         reverse: bool = False,
         overrun_m: float = 0.2,
         tolerance_m: float = 0.03,
+        door_width_m: float = 0.0,
     ) -> None:
         a, b = np.asarray(start, float), np.asarray(end, float)
         length = float(np.linalg.norm(b - a))
@@ -263,6 +264,7 @@ class DriveThrough(FollowPath):
         super().__init__(path, name, phase)
         self.end = (float(b[0]), float(b[1]))
         self.door_xy = door_xy
+        self.door_width_m = door_width_m
         self.lead_m = lead_m
         self.door_id = door_id
         self.reverse = reverse
@@ -298,7 +300,9 @@ class DriveThrough(FollowPath):
         if self.door_id and self.fleet.door_mode(self.door_id) != DoorMode.OPEN:
             return f"door {self.door_id} no longer reported open"
         if self.door_xy is not None:
-            stamp, blocked = self.fleet.lane_blocked(self.door_xy, self.direction, self.lead_m)
+            stamp, blocked = self.fleet.lane_blocked(
+                self.door_xy, self.direction, self.lead_m, self.door_width_m
+            )
             if stamp > self._last_scan:
                 self._last_scan, self._blocked = stamp, blocked
             if self._blocked:

@@ -8,6 +8,7 @@ one line naming the dotted path, e.g. ``controller.lookahead_m: must be > 0, got
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import typing
 from dataclasses import dataclass, field
@@ -185,18 +186,95 @@ class LocalisationConfig:
     scan_band_m: float = field(default=0.5, metadata=check(_positive))
 
 
+def _fraction(v: float) -> str | None:
+    return None if 0.0 <= v <= 1.0 else "must be in [0, 1]"
+
+
+@dataclass
+class MPCConfig:
+    """Sampling-MPC tuning (services/controller/mpc.py); costs are means over the horizon.
+
+    Being means, the weights hold for any horizon length. Each ``w_*`` weight scales one
+    cost term of the table in services/controller/mpc_costs.py, which says what it charges.
+    Field checks run when the fleet config loads; ``validate`` runs them again for a config
+    built in code and adds the rules between fields (the controller calls it).
+    """
+
+    # sampling: candidates per cycle, horizon, model step (s; the warm start is shifted by
+    # the real loop period), noise (m/s, rad/s; wider in w on a cold start), its AR(1)
+    # correlation from one step to the next
+    samples: int = field(default=1000, metadata=check(lambda v: None if v >= 2 else "must be >= 2"))
+    steps: int = field(default=21, metadata=check(_positive))
+    dt: float = field(default=0.2, metadata=check(_positive))
+    sigma_v: float = field(default=0.10, metadata=check(_non_negative))
+    sigma_w: float = field(default=0.08, metadata=check(_non_negative))
+    sigma_w_cold: float = field(default=0.3, metadata=check(_non_negative))
+    noise_corr: float = field(
+        default=0.0, metadata=check(lambda v: None if 0.0 <= v < 1.0 else "must be in [0, 1)")
+    )
+    # guides: a share of the samples is drawn around pure-pursuit rollouts that steer to
+    # the path point guide_lookahead_m ahead, one per lane (offsets left of the path, m)
+    guide_fraction: float = field(default=0.1, metadata=check(_fraction))
+    guide_lookahead_m: float = field(default=0.8, metadata=check(_positive))
+    guide_offsets_m: list[float] = field(default_factory=lambda: [0.0, -0.4, 0.4, -0.8, 0.8])
+    # selection: "mppi" (softmax-weighted mean; lower temperature trusts the best samples
+    # more) or "cluster" (the seed's rule: the best top_fraction, mean of the cluster
+    # within cluster_radius_m mean gap of the best)
+    selection: str = field(default="mppi", metadata=_one_of("mppi", "cluster"))
+    temperature: float = field(default=0.01, metadata=check(_positive))
+    top_fraction: float = field(default=0.05, metadata=check(_fraction))
+    cluster_radius_m: float = field(default=0.15, metadata=check(_non_negative))
+    # cost weights (mpc_costs.TERMS) and the shape of their terms: tracking is squared up
+    # to track_huber_m, linear beyond; progress_running of the progress shortfall is charged
+    # at every step, the rest at the end; the speed window is [v_window_min, v_window_max]
+    # (m/s); walls and LiDAR points cost nothing beyond their influence distances; the goal
+    # term starts within goal_radius_m of the last waypoint
+    w_track: float = field(default=10.0, metadata=check(_non_negative))
+    track_huber_m: float = field(default=0.2, metadata=check(_non_negative))
+    w_progress: float = field(default=1.0, metadata=check(_non_negative))
+    progress_running: float = field(default=0.3, metadata=check(_fraction))
+    w_heading: float = field(default=0.5, metadata=check(_non_negative))
+    w_speed_ref: float = field(default=0.5, metadata=check(_non_negative))
+    w_speed_window: float = field(default=10.0, metadata=check(_non_negative))
+    v_window_min: float = -0.25
+    v_window_max: float = 0.55
+    w_turn: float = field(default=0.1, metadata=check(_non_negative))
+    w_smooth: float = field(default=1.0, metadata=check(_non_negative))
+    w_wall: float = field(default=1.0, metadata=check(_non_negative))
+    wall_influence_m: float = field(default=0.3, metadata=check(_positive))
+    w_obstacle: float = field(default=1.0, metadata=check(_non_negative))
+    obstacle_influence_m: float = field(default=0.5, metadata=check(_positive))
+    w_goal: float = field(default=1.0, metadata=check(_non_negative))
+    goal_radius_m: float = field(default=1.5, metadata=check(_non_negative))
+    # collision: a footprint closer than safety_margin_m to a wall or a point collides;
+    # check points at most footprint_spacing_m apart; cell size of the per-cycle LiDAR field
+    safety_margin_m: float = field(default=0.05, metadata=check(_non_negative))
+    footprint_spacing_m: float = field(default=0.1, metadata=check(_positive))
+    obstacle_resolution_m: float = field(default=0.05, metadata=check(_positive))
+    # computation: "numba" (fast kernel) or "numpy" (vectorised reference); kernel threads
+    # (0 = all; 1 is steadier on a busy CPU); noise seed (same seed, same inputs: same commands)
+    backend: str = field(default="numba", metadata=_one_of("numba", "numpy"))
+    threads: int = field(default=1, metadata=check(_non_negative))
+    seed: int = 0
+
+    def validate(self) -> None:
+        """Raise ConfigError (a ValueError) on a setting the controller cannot run with."""
+        for f in dataclasses.fields(self):
+            rule = f.metadata.get("check")
+            value = getattr(self, f.name)
+            problem = rule(value) if rule else None
+            if problem:
+                raise ConfigError(f"{f.name}: {problem}, got {value!r}")
+        if self.guide_fraction > 0 and not self.guide_offsets_m:
+            raise ConfigError("guide_offsets_m: needs a lane when guide_fraction > 0")
+
+
 @dataclass
 class ControllerConfig:
     """The path-tracking controller."""
 
     rate_hz: float = field(default=25.0, metadata=check(_positive))
     mode: str = field(default="mpc", metadata=_one_of("pursuit", "mpc"))
-    mpc_samples: int = field(default=1000, metadata=check(_positive))
-    mpc_steps: int = field(default=21, metadata=check(_positive))
-    mpc_dt: float = field(default=0.2, metadata=check(_positive))
-    mpc_threads: int = field(default=1, metadata=check(_non_negative))
-    mpc_track_weight: float = field(default=10.0, metadata=check(_non_negative))
-    mpc_safety_margin_m: float = field(default=0.05, metadata=check(_non_negative))
     obstacle_range_m: float = field(default=4.0, metadata=check(_positive))
     final_approach_m: float = field(default=0.5, metadata=check(_non_negative))
     lookahead_m: float = field(default=0.6, metadata=check(_positive))
@@ -211,6 +289,28 @@ class ControllerConfig:
     dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
     dock_speed: float = field(default=0.15, metadata=check(_positive))
     dock_turn_rate: float = field(default=0.5, metadata=check(_positive))
+    mpc: MPCConfig = field(default_factory=MPCConfig)
+
+
+@dataclass
+class DoorCheckConfig:
+    """The LiDAR doorway checks (services/navigator/door_check.py)."""
+
+    band_m: list[float] = field(  # [low, high] above the floor: the points looked at
+        default_factory=lambda: [0.5, 1.7],
+        metadata=check(
+            lambda v: (
+                None if len(v) == 2 and 0 <= v[0] < v[1] else "must be [low, high], 0 <= low < high"
+            )
+        ),
+    )
+    cone_deg: float = field(default=30.0, metadata=check(_positive))
+    window_deg: float = field(default=4.0, metadata=check(_positive))
+    margin_m: float = field(default=0.3, metadata=check(_non_negative))
+    min_points: int = field(default=5, metadata=check(_positive))
+    lane_margin_m: float = field(default=0.3, metadata=check(_non_negative))
+    lane_min_points: int = field(default=3, metadata=check(_positive))
+    jamb_allowance_m: float = field(default=0.05, metadata=check(_non_negative))
 
 
 @dataclass
@@ -239,6 +339,7 @@ class NavigatorConfig:
     idle_amplitude_m: float = field(default=0.12, metadata=check(_positive))
     door_scans: int = field(default=3, metadata=check(_positive))
     pass_overrun_m: float = field(default=0.2, metadata=check(_non_negative))
+    door_check: DoorCheckConfig = field(default_factory=DoorCheckConfig)
 
 
 @dataclass
@@ -325,13 +426,68 @@ class FleetConfig:
 # --------------------------------------------------------------------------------------
 
 
+# Keys that moved (old dotted key -> new), from the fleet config's root. A file or an
+# override that still uses an old key works: its value moves to the new key before the
+# checks, with one warning naming both. Giving both keys is an error (which one is meant?).
+DEPRECATED_KEYS: dict[str, str] = {
+    "controller.mpc_samples": "controller.mpc.samples",
+    "controller.mpc_steps": "controller.mpc.steps",
+    "controller.mpc_dt": "controller.mpc.dt",
+    "controller.mpc_threads": "controller.mpc.threads",
+    "controller.mpc_track_weight": "controller.mpc.w_track",
+    "controller.mpc_safety_margin_m": "controller.mpc.safety_margin_m",
+}
+
+_log = logging.getLogger(__name__)
+_ABSENT = object()
+
+
+def upgrade_keys(data: dict[str, Any]) -> dict[str, Any]:
+    """Plain fleet config ``data`` with every deprecated key moved to its new place."""
+    for old, new in DEPRECATED_KEYS.items():
+        old_keys, new_keys = old.split("."), new.split(".")
+        value, section = _lookup(data, old_keys), _lookup(data, new_keys[:-1])
+        if value is _ABSENT or (section is not _ABSENT and not isinstance(section, dict)):
+            continue  # not used, or the new section is no mapping (from_dict will say so)
+        if _lookup(data, new_keys) is not _ABSENT:
+            raise ConfigError(f"{old}: deprecated and {new} is set too; keep only {new}")
+        _log.warning("config key %s is deprecated: use %s (value moved there)", old, new)
+        nested: Any = value
+        for key in reversed(new_keys):
+            nested = {key: nested}
+        data = merge(_without(data, old_keys), nested)
+    return data
+
+
+def _lookup(data: Any, keys: list[str]) -> Any:
+    for key in keys:
+        if not isinstance(data, dict) or key not in data:
+            return _ABSENT
+        data = data[key]
+    return data
+
+
+def _without(data: dict[str, Any], keys: list[str]) -> dict[str, Any]:
+    out = dict(data)
+    if len(keys) == 1:
+        del out[keys[0]]
+    else:
+        out[keys[0]] = _without(out[keys[0]], keys[1:])
+    return out
+
+
 def from_dict(cls: type, data: Any, path: str = "") -> Any:
-    """Build dataclass ``cls`` from plain data, naming the first bad key in a ConfigError."""
+    """Build dataclass ``cls`` from plain data, naming the first bad key in a ConfigError.
+
+    For the fleet config, deprecated keys are moved first (``DEPRECATED_KEYS``).
+    """
     where = path or "config"
     if data is None:
         data = {}
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    if cls is FleetConfig and not path:
+        data = upgrade_keys(data)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     for key in data:
         if key not in fields:

@@ -15,6 +15,7 @@ Conventions:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import ClassVar
 
 import numpy as np
@@ -369,6 +370,28 @@ class NavGoal(Msg):
     cancel: bool = False
 
 
+class Phase(StrEnum):
+    """What the mission is doing (``NavStatus.phase``; on the wire it is the plain string).
+
+    Door entry: correct, turn, verify, pass (the seed's Phases 0-3). Elevator entry:
+    elevator (a request sent), call (waiting for the car), enter, ride, exit.
+    """
+
+    IDLE = ""
+    PLAN = "plan"
+    FOLLOW = "follow"
+    STOP = "stop"
+    CORRECT = "correct"
+    TURN = "turn"
+    VERIFY = "verify"
+    PASS = "pass"
+    ELEVATOR = "elevator"
+    CALL = "call"
+    ENTER = "enter"
+    RIDE = "ride"
+    EXIT = "exit"
+
+
 @message("nav_status")
 @dataclass
 class NavStatus(Msg):
@@ -378,7 +401,7 @@ class NavStatus(Msg):
     goal_id: str
     state: str
     action: str = ""
-    phase: str = ""
+    phase: str = ""  # a Phase value
     reason: str = ""
     progress: float = 0.0
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from services.controller.pure_pursuit import Command
+from services.controller.command import Command
 from shared.geometry import angle_between, wrap_angle
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off

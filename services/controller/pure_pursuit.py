@@ -12,26 +12,14 @@ A stale pose gives a zero command.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
+from services.controller.command import Command
 from shared.config import ControllerConfig, RobotConfig
 from shared.geometry import wrap_angle
 
 TURN_IN_PLACE_RAD = math.radians(60)
-
-
-@dataclass
-class Command:
-    """One control decision: speeds plus the tracking figures the status reports."""
-
-    v: float
-    w: float
-    state: str  # idle, following, arrived, stale
-    progress: float = 0.0
-    distance_to_goal: float = 0.0
-    cross_track: float = 0.0
 
 
 class PathFollower:

@@ -4,7 +4,8 @@ A command is replaced by zero (and the reason reported as the follow state) when
 pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when a LiDAR
 point lies in the stop zone: the strip ``stop_distance_m`` long in front of the
 footprint (behind it when reversing), as wide as the chair plus ``robot.side_margin_m``
-each side. Points beside the chair (a door's jambs) do not stop it. Pure: points come in the robot frame.
+each side. Points beside the chair (a door's jambs) do not stop it. Pure: points come in
+the robot frame.
 """
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
 """Which tracker drives the chair: the sampling MPC, or pure pursuit where the MPC does not go.
 
-``controller.mode: mpc`` uses :class:`~services.controller.mpc.SamplingMPC` for forward
-paths (walls from the floor map's distance field, obstacles from the live LiDAR). Pure
-pursuit takes reverse paths (backing out of a lift car), precise passes (through a
-door, into a car: the MPC's safety margins leave no room in a 1.0 m door) and the last
-``controller.final_approach_m`` of a path (the MPC's costs flatten out where v_ref
-falls to 0; pure pursuit docks on the approach pose). ``pursuit`` uses pure pursuit
-throughout. A path with ``dock_heading`` set is a docking manoeuvre
+``controller.mode: mpc`` uses :class:`~services.controller.mpc.SamplingMPC` (tuned by the
+``controller.mpc`` section) for forward paths (walls from the floor map's distance field,
+obstacles from the live LiDAR). Pure pursuit takes reverse paths (backing out of a lift
+car), precise passes (through a door, into a car: the MPC's safety margins leave no room
+in a 1.0 m door) and the last ``controller.final_approach_m`` of a path (the MPC's costs
+flatten out where v_ref falls to 0; pure pursuit docks on the approach pose). ``pursuit``
+uses pure pursuit throughout. A path with ``dock_heading`` set is a docking manoeuvre
 (:mod:`services.controller.docking`) whatever the mode. Pure: the node hands in poses,
 speeds and points.
 """
@@ -18,10 +18,11 @@ import math
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
+from services.controller.command import Command
 from services.controller.docking import Docker, DockLimits
-from services.controller.mpc import MPCConfig, SamplingMPC
-from services.controller.pure_pursuit import Command, PathFollower
-from shared.config import ControllerConfig, RobotConfig
+from services.controller.mpc import SamplingMPC
+from services.controller.pure_pursuit import PathFollower
+from shared.config import ConfigError, ControllerConfig, RobotConfig
 from shared.site import Site
 
 
@@ -45,16 +46,10 @@ class Tracker:
         self.use_mpc = False
         self._precise = False
         if cfg.mode == "mpc":
-            mpc_cfg = MPCConfig(
-                samples=cfg.mpc_samples,
-                steps=cfg.mpc_steps,
-                dt=cfg.mpc_dt,
-                threads=cfg.mpc_threads,
-                w_track=cfg.mpc_track_weight,
-                safety_margin_m=cfg.mpc_safety_margin_m,
-                goal_tolerance_m=cfg.goal_tolerance_m,
-            )
-            self.mpc = SamplingMPC(mpc_cfg, robot)
+            try:
+                self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m)
+            except ConfigError as exc:  # a rule between fields: name the section's key
+                raise ConfigError(f"controller.mpc.{exc}") from None
             for name, floor in site.floors.items() if site else []:
                 g = floor.map
                 dist = distance_transform_edt(~g.occupied(True), sampling=g.resolution)

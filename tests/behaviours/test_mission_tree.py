@@ -1,20 +1,18 @@
 """The mission trees ticked for real, against a scripted fleet (the trees are pure logic).
 
-The scripted fleet is a perfect controller on demand: ``arrive()`` puts the chair at the
-end of the last path it was sent (a docking goal with its heading) and says so.
+The scripted fleet (tests/behaviours/fleet_fake.py) is a perfect controller on demand:
+``arrive()`` puts the chair at the end of the last path it was sent (a docking goal with
+its heading) and says so.
 """
 
 from __future__ import annotations
-
-import dataclasses
-import math
 
 import numpy as np
 import py_trees
 import pytest
 from py_trees.common import Status
 
-from behaviours.mission import EntryParams, create_plan_tree, create_route_tree
+from behaviours.mission import EntryParams, create_plan_tree, create_route_tree, route_steps
 from shared.config import NavigatorConfig
 from shared.messages import (
     Checkpoint,
@@ -23,101 +21,11 @@ from shared.messages import (
     LiftDoor,
     LiftMotion,
     LiftState,
-    Odometry,
-    Path,
+    Phase,
     Pose2D,
-    PoseEstimate,
     RouteReply,
 )
-
-
-class ScriptedFleet:
-    """Answers route requests at once (or never); door modes, LiDAR and arrivals as told."""
-
-    def __init__(self, answer: RouteReply | None) -> None:
-        self.t = 0.0
-        self.answer = answer
-        self.sent: list[Path] = []
-        self.stops = 0
-        self.follow: FollowStatus | None = None
-        self.doors: dict[str, int] = {}
-        self.door_requests: list[tuple[str, int]] = []
-        self.lifts: dict[str, LiftState] = {}
-        self.lift_requests: list[tuple[str, str]] = []
-        self.released: list[str] = []
-        self.floor: str | None = None
-        self.scan_stamp = 0.0
-        self.lidar = "open"
-        self.lane = False
-        self.x, self.y, self.th = 0.0, 0.0, 0.0
-        self.events: list[tuple[str, str]] = []
-
-    def now(self) -> float:
-        return self.t
-
-    def request_route(self, goal, place, on_done) -> None:
-        if self.answer is not None:
-            on_done(self.answer, "")
-
-    def send_path(self, path: Path) -> None:
-        self.sent.append(path)
-
-    def stop(self) -> None:
-        self.stops += 1
-
-    def follow_status(self) -> FollowStatus | None:
-        # a live controller reports every cycle: its last state, stamped now
-        return dataclasses.replace(self.follow, stamp=self.t) if self.follow else None
-
-    def event(self, kind: str, detail: str) -> None:
-        self.events.append((kind, detail))
-
-    def pose(self) -> PoseEstimate | None:
-        return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3))
-
-    def odometry(self) -> Odometry:
-        return Odometry(self.t, Pose2D(self.x, self.y, self.th), 0.0, 0.0)
-
-    def door_mode(self, door_id: str) -> int | None:
-        return self.doors.get(door_id)
-
-    def request_door(self, door_id: str, mode: int) -> None:
-        self.door_requests.append((door_id, mode))
-
-    def lidar_door_state(self, x: float, y: float) -> tuple[float, str]:
-        self.scan_stamp += 0.1
-        return self.scan_stamp, self.lidar
-
-    def lane_blocked(self, door_xy, direction, lead_m) -> tuple[float, bool]:
-        self.scan_stamp += 0.1
-        return self.scan_stamp, self.lane
-
-    def lift_state(self, lift_id: str):
-        return self.lifts.get(lift_id)
-
-    def session_id(self) -> str:
-        return "s1"
-
-    def request_lift(self, lift_id: str, floor: str) -> None:
-        self.lift_requests.append((lift_id, floor))
-
-    def release_lift(self, lift_id: str) -> None:
-        self.released.append(lift_id)
-
-    def set_floor(self, floor: str) -> None:
-        self.floor = floor
-
-    def arrive(self, off: tuple[float, float] = (0.0, 0.0)) -> None:
-        """The chair reaches the end of the last path (``off`` metres wrong in x, y)."""
-        path = self.sent[-1]
-        end = path.waypoints[-1]
-        if path.dock_heading is not None:
-            self.th = path.dock_heading
-        elif len(path.waypoints) > 1:
-            d = path.waypoints[-1] - path.waypoints[-2]
-            self.th = math.atan2(d[1], d[0]) + (math.pi if path.reverse else 0.0)
-        self.x, self.y = float(end[0]) + off[0], float(end[1]) + off[1]
-        self.follow = FollowStatus(self.t, path.path_id, "arrived", 1.0, 0.0, 0.0)
+from tests.behaviours.fleet_fake import ScriptedFleet, door, leg, route
 
 
 def grow(root, fleet):
@@ -134,29 +42,14 @@ def blackboard():
     return bb
 
 
-PARAMS = EntryParams(NavigatorConfig(), 0.2, 0.76, 0.35, 0.375)
+PARAMS = EntryParams(NavigatorConfig(), 0.2, 0.76, 0.35)
 
 
 def route_tree(route: RouteReply, fleet: ScriptedFleet, **nav) -> py_trees.trees.BehaviourTree:
     params = PARAMS
     if nav:
-        params = EntryParams(NavigatorConfig(**nav), 0.2, 0.76, 0.35, 0.375)
+        params = EntryParams(NavigatorConfig(**nav), 0.2, 0.76, 0.35)
     return grow(create_route_tree(route, fleet.now, params), fleet)
-
-
-def leg(path_id: str, a=(-2.0, 0.0), b=(1.0, 0.0)) -> Path:
-    return Path(0.0, path_id, "1", np.array([a, b], float), np.array([0.5, 0.0]))
-
-
-def door(kind: str = "manual") -> Checkpoint:
-    return Checkpoint(
-        "door", "d1", "1", Pose2D(1, 0, 0, "1"), Pose2D(3.2, 0, 0, "1"), 2.2, kind, 1.0
-    )
-
-
-def route(cp: Checkpoint) -> RouteReply:
-    after = leg("r.1", (3.2, 0.0), (6.0, 0.0))
-    return RouteReply(True, leg("r"), legs=[leg("r.0"), after], checkpoints=[cp])
 
 
 ROUTE = route(door())
@@ -528,3 +421,35 @@ def test_busy_lift_times_out_and_is_named_for_another_one() -> None:
     assert tree.root.status == Status.FAILURE
     assert bb.blocked == "lift_a"  # the navigator re-plans with the other lift
     assert bb.failure == "WaitForLift lift_a at 1: timed out after 30 s"
+
+
+def test_route_steps_are_the_drive_sequence_by_name() -> None:
+    fleet = ScriptedFleet(None)
+    tree = route_tree(LIFT_ROUTE, fleet)
+    assert [s.name for s in route_steps(tree.root)] == ["Leg 0", "Elevator lift_a", "Leg 1"]
+    assert route_steps(create_plan_tree(fleet.now, 5.0)) == []
+
+
+def test_door_checks_are_told_the_door_width() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):  # WaitForDoorOpen: the LiDAR door check
+        tree.tick()
+    checked = len(fleet.widths)
+    tree.tick()  # DriveThrough: the lane check
+    assert fleet.sent[-1].path_id == "r.door.d1" and len(fleet.widths) == checked + 1
+    assert set(fleet.widths) == {1.0}
+    lift = route_tree(LIFT_ROUTE, ScriptedFleet(None))  # a car door's width is unknown: 0
+    assert {b.door_width_m for b in lift.root.iterate() if hasattr(b, "door_width_m")} == {0.0}
+
+
+def test_every_phase_is_a_phase() -> None:
+    tree = route_tree(route(door("automatic")), ScriptedFleet(None))
+    phases = {b.phase for b in tree.root.iterate() if hasattr(b, "phase")}
+    assert all(isinstance(p, Phase) for p in phases)
+    assert {Phase.FOLLOW, Phase.CORRECT, Phase.TURN, Phase.VERIFY, Phase.PASS} <= phases

@@ -60,3 +60,57 @@ def test_configuration_doc_lists_every_key() -> None:
 
     doc = (ROOT / "docs" / "configuration.md").read_text()
     assert config.markdown_table() in doc, "regenerate the table in docs/configuration.md"
+
+
+def test_mpc_tuning_has_one_home_with_the_fleets_values() -> None:
+    mpc = config.load().controller.mpc
+    assert (mpc.w_track, mpc.samples, mpc.steps, mpc.dt) == (10.0, 1000, 21, 0.2)
+    assert (mpc.threads, mpc.safety_margin_m) == (1, 0.05)
+    assert mpc == config.MPCConfig()  # the section's defaults are the class's, nothing else
+    cfg = config.load(None, ["controller.mpc.w_track=4", "controller.mpc.guide_offsets_m=[0]"])
+    assert cfg.controller.mpc.w_track == 4.0 and cfg.controller.mpc.guide_offsets_m == [0.0]
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ("controller.mpc.temperature=0", "controller.mpc.temperature: must be > 0, got 0"),
+        ("controller.mpc.samples=1", "controller.mpc.samples: must be >= 2, got 1"),
+        ("controller.mpc.selection=best", "controller.mpc.selection: must be one of"),
+        ("controller.mpc.noise_corr=1", "controller.mpc.noise_corr: must be in [0, 1)"),
+        ("controller.mpc.w_tracks=1", "controller.mpc.w_tracks: unknown key"),
+        ("controller.mpc_samples=1", "controller.mpc.samples: must be >= 2, got 1"),
+    ],
+)
+def test_bad_mpc_values_name_the_dotted_key(override: str, message: str) -> None:
+    escaped = message.replace(".", r"\.").replace("[", r"\[").replace(")", r"\)")
+    with pytest.raises(ConfigError, match=escaped):
+        config.load(None, [override])
+
+
+@pytest.mark.parametrize(("old", "new"), sorted(config.DEPRECATED_KEYS.items()))
+def test_a_deprecated_key_still_sets_its_new_key_with_a_warning(
+    old: str, new: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    value = 3 if new.endswith(("samples", "steps", "threads")) else 0.5
+    with caplog.at_level("WARNING", logger="shared.config"):
+        cfg = config.load(None, [f"{old}={value}"])
+    section, key = new.rsplit(".", 1)
+    assert section == "controller.mpc"
+    assert getattr(cfg.controller.mpc, key) == value
+    assert [
+        r.getMessage() for r in caplog.records if old in r.getMessage() and new in r.getMessage()
+    ]
+
+
+def test_a_deprecated_key_in_a_file_works_and_giving_both_keys_is_an_error(
+    tmp_path: Path,
+) -> None:
+    old = tmp_path / "old.yaml"
+    old.write_text("controller:\n  mpc_track_weight: 7.5\n  mpc:\n    samples: 300\n")
+    mpc = config.load(old).controller.mpc
+    assert (mpc.w_track, mpc.samples) == (7.5, 300)
+    both = ["controller.mpc_track_weight=3", "controller.mpc.w_track=4"]
+    with pytest.raises(ConfigError, match=r"controller\.mpc_track_weight: deprecated") as info:
+        config.load(None, both)
+    assert "controller.mpc.w_track" in str(info.value) and "\n" not in str(info.value)

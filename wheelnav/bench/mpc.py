@@ -1,12 +1,13 @@
 """Benchmark the sampling MPC: time per cycle, and closed-loop quality of its two selections.
 
 ``python -m wheelnav.bench.mpc [--json] [--repeats N] [--backend numba|numpy]
-[--threads N] [--compare]`` times ``SamplingMPC.step`` for 1000 x 21 and 2000 x 56
-samples x steps on a corridor map with about 400 LiDAR points; ``--compare`` also drives
-an ideal unicycle through an L-shaped corridor, a 1.0 m doorway and past a box with MPPI
-and with the seed's cluster rule, and reports RMS cross-track error, RMS change of w
-between cycles and the smallest footprint clearance. The scenes and the closed loop are
-reused by the tests.
+[--threads N] [--compare]`` times ``SamplingMPC.step`` for the fleet's samples x steps
+(``controller.mpc``) and 2000 x 56 on a corridor map with about 400 LiDAR points;
+``--compare`` also drives an ideal unicycle through an L-shaped corridor, a 1.0 m doorway
+and past a box with MPPI and with the seed's cluster rule, and reports RMS cross-track
+error, RMS change of w between cycles and the smallest footprint clearance. Every run uses
+the fleet's MPC tuning (``FleetConfig().controller.mpc``) with only the sizes, backend,
+threads, selection and seed replaced. The scenes and the closed loop are reused by the tests.
 """
 
 from __future__ import annotations
@@ -21,11 +22,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.ndimage import binary_dilation, distance_transform_edt
 
-from services.controller.mpc import MPCConfig, SamplingMPC
-from shared.config import RobotConfig
+from services.controller.mpc import SamplingMPC
+from shared.config import FleetConfig, MPCConfig, RobotConfig
 
 RES = 0.05  # map cell size (m), as the seed's maps
-SIZES = ((1000, 21), (2000, 56))
+
+
+def fleet_mpc(**changes) -> MPCConfig:
+    """The fleet's MPC tuning (``controller.mpc`` defaults) with ``changes`` replaced."""
+    return replace(FleetConfig().controller.mpc, **changes)
+
+
+SIZES = ((fleet_mpc().samples, fleet_mpc().steps), (2000, 56))  # the fleet's, and a big one
 
 
 @dataclass
@@ -246,8 +254,9 @@ def closed_loop(
 def compare_selections(
     cfg: MPCConfig | None = None, seeds: tuple[int, ...] = (0, 1, 2), progress=print
 ) -> dict:
-    """Closed-loop figures of MPPI and the cluster rule on the same scenes and seeds."""
-    cfg = cfg or MPCConfig()
+    """Closed-loop figures of MPPI and the cluster rule on the same scenes and seeds
+    (the fleet's tuning unless ``cfg`` is given)."""
+    cfg = cfg or fleet_mpc()
     out: dict[str, list[dict]] = {}
     for selection in ("mppi", "cluster"):
         rows = []
@@ -292,7 +301,7 @@ def run_mpc_bench(
     scan = np.concatenate([lidar_scan(scene, x, y), person])
     rows = []
     for samples, steps in sizes:
-        cfg = MPCConfig(samples=samples, steps=steps, backend=backend, threads=threads)
+        cfg = fleet_mpc(samples=samples, steps=steps, backend=backend, threads=threads)
         mpc = SamplingMPC(cfg, RobotConfig())
         mpc.set_path(scene.path, scene.v_ref)
         mpc.set_distance_field(scene.dist, RES, scene.origin)

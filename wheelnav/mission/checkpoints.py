@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from shared.geometry import angle_between
-from shared.messages import Checkpoint
+from shared.messages import Checkpoint, Phase
 
 NEAR_M = 0.3  # "at the approach pose": within this distance of it
 STILL = 0.03  # m/s: standing
@@ -98,7 +98,7 @@ class CheckpointLog:
             if head is not None:
                 head.phases[name] = round(head.phases.get(name, 0.0) + stamp - start, 2)
                 truth = self._truth_at(stamp)
-                if name == "correct" and truth is not None:
+                if name == Phase.CORRECT and truth is not None:
                     self._corrected(head, truth)
             self._phase = None
         if ours and phase and self._phase is None:
@@ -115,7 +115,7 @@ class CheckpointLog:
             or head.closing_at is not None
             or head.passed_s is not None
             or self._phase is None
-            or self._phase[0] != "pass"
+            or self._phase[0] != Phase.PASS
             or self._truth_at(stamp) is None
         ):
             return
@@ -208,7 +208,7 @@ class CheckpointLog:
                 "wait_s": _r(wait),
                 "position_error_m": _r(t.position_error_m, 3),
                 "heading_error_deg": _r(t.heading_error_deg, 2),
-                "correction_s": phases.get("correct"),
+                "correction_s": phases.get(Phase.CORRECT),
                 "phases": phases,
             }
         )

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
 
-from services.controller import mpc as mpc_module
+from services.controller import mpc_costs
 from services.controller.mpc import MPCConfig, SamplingMPC, footprint_points
-from shared.config import RobotConfig
+from shared.config import ControllerConfig, RobotConfig
 from wheelnav.bench.mpc import (
     RES,
     closed_loop,
@@ -20,7 +20,7 @@ from wheelnav.bench.mpc import (
     lidar_scan,
 )
 
-WEIGHTS = mpc_module._WEIGHTS  # every cost weight the kernel reads, from the one list
+WEIGHTS = mpc_costs.weight_names()  # every cost weight the evaluators read, from the table
 BACKENDS = ("numba", "numpy")
 ONE = {"threads": 1}  # one kernel thread: steady test times on a busy machine, same results
 
@@ -173,6 +173,36 @@ def test_numba_and_numpy_evaluators_agree() -> None:
     assert (a.colliding == b.colliding).mean() >= 0.99
 
 
+def test_the_term_table_names_every_weight_once() -> None:
+    fields = {f for f in MPCConfig.__dataclass_fields__ if f.startswith("w_")}
+    assert sorted(WEIGHTS) == sorted(fields)
+    names = [term.name for term in mpc_costs.TERMS]
+    assert len(set(names)) == len(names)
+    assert [mpc_costs.INDEX[n] for n in names] == list(range(len(names)))
+
+
+@pytest.mark.parametrize("term", WEIGHTS)
+def test_each_term_costs_the_same_in_both_evaluators(term: str) -> None:
+    """Term by term, so a weight read at the wrong index (or a stale cached kernel after
+    the table changed) shows; near the goal, so the goal term is on too."""
+    scene = l_corridor_scene()
+    rng = np.random.default_rng(5)
+    seqs = np.zeros((200, 21, 2), dtype=np.float32)
+    seqs[..., 0] = 0.4 + rng.normal(0, 0.15, (200, 21))
+    seqs[..., 1] = np.cumsum(rng.normal(0, 0.15, (200, 21)), axis=1)
+    for x, y, th in ((1.0, 0.1, 0.05), (5.0, 6.1, math.pi / 2)):
+        scan = lidar_scan(scene, x, y)
+        cost = {}
+        for backend in BACKENDS:
+            mpc = SamplingMPC(only(term, backend), RobotConfig())
+            mpc.set_path(scene.path, scene.v_ref)
+            mpc.set_distance_field(scene.dist, RES, scene.origin)
+            cost[backend] = mpc.evaluate(x, y, th, 0.4, 0.0, seqs, scan).cost
+        np.testing.assert_allclose(cost["numba"], cost["numpy"], rtol=1e-3, atol=1e-4)
+        if (x, y) != (1.0, 0.1) or term != "w_goal":  # the goal term is off far from it
+            assert cost["numpy"].max() > 0.0, term
+
+
 # -- safety and limits --------------------------------------------------------------------
 
 
@@ -249,7 +279,7 @@ def test_l_shaped_corridor_reaches_the_goal_on_the_path_within_the_limits() -> N
     trace: list = []
     result = closed_loop(MPCConfig(**ONE), l_corridor_scene(), robot, period_s=0.1, trace=trace)
     assert result["state"] == "arrived"
-    assert result["goal_error_m"] <= MPCConfig(**ONE).goal_tolerance_m
+    assert result["goal_error_m"] <= ControllerConfig().goal_tolerance_m
     assert result["rms_cross_track_m"] < 0.10
     assert result["min_clearance_m"] > 0.0
     cmd = np.array(trace)[:, 3:]
@@ -340,3 +370,18 @@ def test_bad_settings_are_refused() -> None:
         SamplingMPC(MPCConfig(selection="best"), RobotConfig())
     with pytest.raises(ValueError, match="samples"):
         SamplingMPC(replace(MPCConfig(**ONE), samples=1), RobotConfig())
+    with pytest.raises(ValueError, match="guide_offsets_m"):
+        SamplingMPC(MPCConfig(guide_offsets_m=[], **ONE), RobotConfig())
+
+
+def test_the_tracker_runs_the_fleets_mpc_section_and_goal_tolerance() -> None:
+    from services.controller.tracking import Tracker
+
+    cfg = ControllerConfig(goal_tolerance_m=0.2, mpc=MPCConfig(samples=50, **ONE))
+    tracker = Tracker(cfg, RobotConfig(), None)
+    assert tracker.mpc.cfg is cfg.mpc
+    assert tracker.mpc.goal_tolerance_m == 0.2
+    tracker.mpc.set_path(np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.3, 0.0]))
+    assert tracker.mpc.step(0.85, 0.0, 0.0, 0.0, 0.0).state == "arrived"
+    with pytest.raises(ValueError, match=r"^controller\.mpc\.guide_offsets_m: needs a lane"):
+        Tracker(replace(cfg, mpc=replace(cfg.mpc, guide_offsets_m=[])), RobotConfig(), None)

@@ -1,0 +1,194 @@
+"""The fleet as the navigator last heard it, and what it computes from that (no I/O).
+
+:class:`FleetState` keeps the latest pose, odometry, controller status, scan, door
+modes and lift states, answers the reading half of the behaviours'
+:class:`~behaviours.fleet.Fleet` interface (the LiDAR door checks included), holds the
+mission's avoid set and lift session, and builds the messages the other half sends.
+``services/navigator/node.py`` subclasses it with the half that publishes on the bus.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from services.navigator.door_check import UNKNOWN, door_state_from_scan, lane_blocked
+from shared.config import DoorCheckConfig
+from shared.messages import (
+    Clock,
+    DoorRequest,
+    DoorState,
+    Event,
+    FollowStatus,
+    LiftDoor,
+    LiftRequest,
+    LiftRequestType,
+    LiftState,
+    Odometry,
+    Path,
+    PointCloud,
+    Pose2D,
+    PoseEstimate,
+    RouteRequest,
+)
+
+WARNING_EVENTS = ("safety_stop", "fallback")
+
+
+class FleetState:
+    """Latest messages, LiDAR checks, avoid set and lift session of one chair's navigator.
+
+    ``robot`` names the chair (door requests, lift sessions), ``source`` the events'
+    sender; ``half_width_m`` is the chair's clearance half-width (the doorway lane) and
+    ``sensor_height_m`` the LiDAR's height above the floor.
+    """
+
+    def __init__(
+        self,
+        robot: str,
+        door_check: DoorCheckConfig,
+        sensor_height_m: float,
+        half_width_m: float,
+        source: str = "navigator",
+    ) -> None:
+        self.robot = robot
+        self.door_check = door_check
+        self.sensor_height_m = sensor_height_m
+        self.half_width_m = half_width_m
+        self.source = source
+        self.clock: Clock | None = None
+        self.avoided: set[str] = set()
+        self.session = ""
+        self._pose: PoseEstimate | None = None
+        self._odom: Odometry | None = None
+        self._follow: FollowStatus | None = None
+        self._scan: PointCloud | None = None
+        self._doors: dict[str, int] = {}
+        self._lifts: dict[str, LiftState] = {}
+
+    # ---- what arrives -------------------------------------------------------------------
+
+    def on_clock(self, msg: Clock) -> None:
+        self.clock = msg
+
+    def on_pose(self, msg: PoseEstimate) -> None:
+        self._pose = msg
+
+    def on_odom(self, msg: Odometry) -> None:
+        self._odom = msg
+
+    def on_follow(self, msg: FollowStatus) -> None:
+        self._follow = msg
+
+    def on_scan(self, msg: PointCloud) -> None:
+        self._scan = msg
+
+    def on_door_state(self, msg: DoorState) -> None:
+        self._doors[msg.door_name] = msg.current_mode
+
+    def on_lift_state(self, msg: LiftState) -> None:
+        self._lifts[msg.lift_name] = msg
+
+    # ---- the mission (the navigator's side) ---------------------------------------------
+
+    def new_mission(self, goal_id: str) -> None:
+        """Forget the checkpoints avoided so far; lift requests now hold ``<robot>-<goal_id>``."""
+        self.avoided.clear()
+        self.session = f"{self.robot}-{goal_id}"
+
+    def avoid(self, checkpoint_id: str) -> None:
+        """Route requests from now on go around ``checkpoint_id``."""
+        self.avoided.add(checkpoint_id)
+
+    # ---- the Fleet interface: reading ---------------------------------------------------
+
+    def now(self) -> float:
+        return self.clock.stamp if self.clock else 0.0
+
+    def pose(self) -> PoseEstimate | None:
+        return self._pose
+
+    def odometry(self) -> Odometry | None:
+        return self._odom
+
+    def follow_status(self) -> FollowStatus | None:
+        return self._follow
+
+    def door_mode(self, door_id: str) -> int | None:
+        return self._doors.get(door_id)
+
+    def lift_state(self, lift_id: str) -> LiftState | None:
+        return self._lifts.get(lift_id)
+
+    def session_id(self) -> str:
+        return self.session
+
+    def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
+        if self._scan is None or self._pose is None:
+            return -1.0, UNKNOWN
+        p = self._pose.pose
+        seen = door_state_from_scan(
+            self._scan.points,
+            (p.x, p.y, p.theta),
+            (x, y),
+            self.sensor_height_m,
+            self.door_check,
+            width_m,
+        )
+        return self._scan.stamp, seen
+
+    def lane_blocked(
+        self, door_xy: tuple[float, float], direction: float, lead_m: float, width_m: float
+    ) -> tuple[float, bool]:
+        if self._scan is None or self._pose is None:
+            return -1.0, False
+        p = self._pose.pose
+        blocked = lane_blocked(
+            self._scan.points,
+            (p.x, p.y, p.theta),
+            door_xy,
+            direction,
+            self.sensor_height_m,
+            self.half_width_m,
+            lead_m,
+            self.door_check,
+            width_m,
+        )
+        return self._scan.stamp, blocked
+
+    # ---- the Fleet interface: the messages its sending half publishes -------------------
+
+    def route_request(self, goal: Pose2D | None, place: str) -> RouteRequest | None:
+        """A route from the current pose around the avoided checkpoints; None without a pose."""
+        if self._pose is None:
+            return None
+        return RouteRequest(start=self._pose.pose, goal=goal, place=place, avoid=list(self.avoided))
+
+    def stop_path(self) -> Path:
+        """The empty path: the controller drops its path and commands zero speed."""
+        return Path(self.now(), "", "", np.zeros((0, 2)), np.zeros(0))
+
+    def lift_request(self, lift_id: str, floor: str) -> LiftRequest:
+        """Hold our session on ``lift_id``, its car to ``floor`` with the doors to open."""
+        return LiftRequest(
+            self.now(), lift_id, self.session, LiftRequestType.AGV_MODE, floor, LiftDoor.OPEN
+        )
+
+    def lift_release(self, lift_id: str) -> LiftRequest:
+        """End our session on ``lift_id``."""
+        return LiftRequest(
+            self.now(), lift_id, self.session, LiftRequestType.END_SESSION, "", LiftDoor.CLOSED
+        )
+
+    def initial_pose(self, floor: str) -> PoseEstimate | None:
+        """The current pose on ``floor`` (same x, y, heading); None without a pose."""
+        if self._pose is None:
+            return None
+        p = self._pose.pose
+        return PoseEstimate(self.now(), Pose2D(p.x, p.y, p.theta, floor), self._pose.covariance)
+
+    def event_message(self, kind: str, detail: str) -> Event:
+        level = "warning" if kind in WARNING_EVENTS else "info"
+        return Event(self.now(), self.source, kind, detail, level)
+
+    def door_request(self, door_id: str, mode: int) -> DoorRequest:
+        return DoorRequest(self.now(), self.robot, door_id, mode)

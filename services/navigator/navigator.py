@@ -1,0 +1,269 @@
+"""The navigator's core: one mission at a time, as a plan tree and then a route tree.
+
+A goal grows a plan tree (ask the planner for a route); when it succeeds, a route tree
+built from that route (``behaviours.mission``). A door or lift that fails and is named in
+``/mission/blocked`` is marked unavailable, avoided, and the route planned again, at most
+``navigator.max_replans`` times. The status (state, the running step, its phase,
+progress, the reason) goes out on every change and at ``navigator.status_rate_hz``; a
+snapshot of the tree on every change of its statuses.
+
+No Zenoh here: the rest of the fleet is a :class:`MissionFleet` (the behaviours'
+:class:`~behaviours.fleet.Fleet` plus the mission's avoid set and lift session) and what
+the navigator publishes goes to a :class:`NavigatorOutput`; ``node.py`` implements both
+over the bus, the tests with fakes.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Protocol
+
+import py_trees
+from py_trees.common import Access, Status
+
+from behaviours.fleet import NS, Fleet
+from behaviours.mission import EntryParams, create_plan_tree, create_route_tree, route_steps
+from behaviours.motion import FollowPath
+from behaviours.snapshot import signature, snapshot
+from shared.config import FleetConfig, NavigatorConfig
+from shared.messages import Availability, NavGoal, NavStatus, Phase, RouteReply, TreeSnapshot
+
+NAME = "navigator"
+ENDED = ("failed", "succeeded", "cancelled")
+
+
+class NavigatorOutput(Protocol):
+    """Where the navigator's own messages go."""
+
+    def publish_status(self, status: NavStatus) -> None:
+        """The mission status (on every change and at the status rate)."""
+
+    def publish_tree(self, snapshot: TreeSnapshot) -> None:
+        """The behaviour tree after a tick (on every change, feedback alone at 2 Hz)."""
+
+    def publish_route(self, route: RouteReply) -> None:
+        """The route about to be driven (after each plan and re-plan)."""
+
+    def mark_unavailable(self, update: Availability) -> None:
+        """Tell the planner a door or lift is unavailable (it failed this mission)."""
+
+
+class MissionFleet(Fleet, Protocol):
+    """The behaviours' fleet, plus what only the navigator does to it."""
+
+    def new_mission(self, goal_id: str) -> None:
+        """Forget the checkpoints avoided so far; lift requests hold this mission's session."""
+
+    def avoid(self, checkpoint_id: str) -> None:
+        """Route requests from now on go around ``checkpoint_id``."""
+
+
+class Navigator:
+    """One mission at a time: a fresh tree per goal, status on change.
+
+    Not thread-safe: the node calls ``on_goal`` and ``step`` from its bus's one dispatcher
+    thread (under the bus lock), never at the same time.
+    """
+
+    def __init__(
+        self,
+        cfg: NavigatorConfig,
+        entry: EntryParams,
+        fleet: MissionFleet,
+        out: NavigatorOutput,
+        log: logging.Logger | None = None,
+    ) -> None:
+        self.cfg = cfg
+        self.entry = entry
+        self.fleet = fleet
+        self.out = out
+        self.log = log or logging.getLogger(f"wheelnav.{NAME}")
+        self.tree: py_trees.trees.BehaviourTree | None = None
+        self.status = NavStatus(0.0, "", "idle")
+        self.driving = False  # False: the plan tree runs; True: the route tree
+        self.replans = 0
+        self.fallbacks: list[str] = []
+        self._steps_of: list[py_trees.behaviour.Behaviour] = []
+        self._last_sent: tuple | None = None
+        self._last_sent_at = -1e9
+        self._tree_sig: tuple | None = None
+        self._tree_sent_at = -1e9
+        self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
+        for key in ("goal", "place", "failure", "phase", "route", "blocked", "action"):
+            self.bb.register_key(key, access=Access.WRITE)
+
+    @classmethod
+    def from_config(
+        cls,
+        cfg: FleetConfig,
+        fleet: MissionFleet,
+        out: NavigatorOutput,
+        log: logging.Logger | None = None,
+    ) -> Navigator:
+        """A navigator with the fleet config's navigator section, door speed and footprint."""
+        return cls(cfg.navigator, EntryParams.from_config(cfg), fleet, out, log)
+
+    @property
+    def running(self) -> bool:
+        return self.tree is not None and self.status.state == "running"
+
+    def on_goal(self, msg: NavGoal) -> None:
+        """Start a mission (ending the running one), or cancel the running one."""
+        if msg.cancel:
+            if self.running:
+                self._set("cancelled", reason="cancelled by request")  # progress so far
+                self.tree.root.stop(Status.INVALID)  # every running behaviour terminates
+                self.fleet.stop()
+            return
+        if msg.goal is None and not msg.place:
+            self.log.warning("goal %s ignored: give a goal pose or a place", msg.goal_id)
+            return
+        # a running mission's tree is dropped as it stands: the controller keeps its path
+        # until the new route's first path replaces it (a plan that fails stops the chair)
+        self.bb.goal, self.bb.place, self.bb.failure = msg.goal, msg.place, ""
+        self.bb.phase, self.bb.blocked = Phase.IDLE, ""
+        self.fleet.new_mission(msg.goal_id)
+        self.replans = 0
+        self.fallbacks = []
+        self._plan()
+        target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
+        self.log.info("mission %s to %s", msg.goal_id, target)
+        self.status = NavStatus(self.fleet.now(), msg.goal_id, "running")
+
+    def step(self, now: float) -> None:
+        """Tick the running tree once (``now``: the fleet clock), then publish the status."""
+        if self.running:
+            self.tree.tick()
+            self._stream_tree(now)
+            result = self.tree.root.status
+            if result == Status.SUCCESS and not self.driving:
+                self._drive(self.bb.route)
+            elif result == Status.SUCCESS:
+                self._set("succeeded", reason="arrived")
+            elif result == Status.FAILURE and self._replan():
+                pass
+            elif result == Status.FAILURE:
+                failure = self.bb.failure or "mission failed"
+                self._set("failed", reason="; then ".join([*self.fallbacks, failure]))
+            else:
+                tip = self.tree.tip()
+                self._set(
+                    "running",
+                    phase=self.bb.phase,
+                    action=self._action(),
+                    reason=tip.feedback_message if tip else "",
+                )
+        self._publish(now)
+
+    # ---- the two trees ------------------------------------------------------------------
+
+    def _grow(self, root: py_trees.behaviour.Behaviour) -> None:
+        self.tree = py_trees.trees.BehaviourTree(root)
+        # setup only stores the fleet handle (never blocks); a finite timeout would need
+        # signals, which only work on the main thread, and goals arrive on Zenoh threads
+        self.tree.setup(timeout=py_trees.common.Duration.INFINITE, fleet=self.fleet)
+        self._steps_of = route_steps(root)
+
+    def _plan(self) -> None:
+        self.driving = False
+        self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
+
+    def _drive(self, route: RouteReply) -> None:
+        """The plan tree got ``route``: drive it, starting its first step now (its phase is
+        the status's)."""
+        self.driving = True
+        self.out.publish_route(route)
+        self._grow(create_route_tree(route, self.fleet.now, self.entry))
+        self.tree.tick()
+        self._set("running", phase=self.bb.phase, action=self._action())
+
+    def _stream_tree(self, now: float) -> None:
+        """Publish a snapshot when the tree's statuses change (feedback alone: at 2 Hz)."""
+        snap = snapshot(self.tree.root, now, self.status.goal_id)
+        sig = signature(snap)
+        if sig != self._tree_sig or now - self._tree_sent_at >= 0.5:
+            self.out.publish_tree(snap)
+            self._tree_sig, self._tree_sent_at = sig, now
+
+    def _replan(self) -> bool:
+        """After a door or lift failed: avoid it and plan again (bounded). False if not."""
+        blocked = self.bb.blocked
+        if not self.driving or not blocked or self.replans >= self.cfg.max_replans:
+            return False
+        self.replans += 1
+        self.fleet.avoid(blocked)
+        self.log.warning(
+            "%s failed (%s): planning around it (re-plan %d of %d)",
+            blocked,
+            self.bb.failure,
+            self.replans,
+            self.cfg.max_replans,
+        )
+        self.fleet.event("fallback", f"avoiding {blocked}: {self.bb.failure}")
+        self.out.mark_unavailable(Availability(self.fleet.now(), blocked, False, self.bb.failure))
+        self.fallbacks.append(self.bb.failure)
+        self.bb.blocked = ""
+        self.bb.failure = ""
+        self._plan()
+        self._set("running", phase=Phase.PLAN, action="re-plan")
+        return True
+
+    # ---- the status ---------------------------------------------------------------------
+
+    def _set(self, state: str, **fields) -> None:
+        s = self.status
+        self.bb.action = fields.get("action", "")
+        self.status = NavStatus(
+            self.fleet.now(),
+            s.goal_id,
+            state,
+            fields.get("action", s.action if state == "running" else ""),
+            str(fields.get("phase", s.phase)),  # the wire carries the Phase's plain string
+            fields.get("reason", ""),
+            self._progress(),
+        )
+        if state in ENDED:
+            self.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
+
+    def _running_step(self) -> tuple[int, int, py_trees.behaviour.Behaviour | None]:
+        """(index of the route step running, number of steps, the step): a step is a leg,
+        a door or an elevator of the route tree (done steps counted when none runs)."""
+        steps = self._steps_of if self.driving else []
+        for i, step in enumerate(steps):
+            if step.status == Status.RUNNING:
+                return i, len(steps), step
+        return sum(s.status == Status.SUCCESS for s in steps), len(steps), None
+
+    def _action(self) -> str:
+        """The running step, e.g. "Door d1_room_1a (2/5)"; "plan" while planning."""
+        if not self.driving:
+            return "plan"
+        i, n, step = self._running_step()
+        return f"{step.name} ({i + 1}/{n})" if step is not None else ""
+
+    def _progress(self) -> float:
+        """Route steps done, plus the controller's progress along the running leg."""
+        i, n, step = self._running_step()
+        if n == 0:
+            return 0.0
+        return min(1.0, (i + self._leg_progress(step)) / n)
+
+    def _leg_progress(self, step: py_trees.behaviour.Behaviour | None) -> float:
+        """The controller's progress along ``step`` if it is a leg and the controller's
+        report is about that leg's path (not the step before's)."""
+        follow = self.fleet.follow_status()
+        if step is None or follow is None or not step.name.startswith("Leg "):
+            return 0.0
+        ours = any(
+            isinstance(b, FollowPath) and b.path_id == follow.path_id for b in step.iterate()
+        )
+        return follow.progress if ours else 0.0
+
+    def _publish(self, now: float) -> None:
+        s = self.status
+        sig = (s.goal_id, s.state, s.action, s.phase)
+        due = now - self._last_sent_at >= 1.0 / self.cfg.status_rate_hz
+        if sig != self._last_sent or due:
+            self.status.stamp = now
+            self.out.publish_status(self.status)
+            self._last_sent, self._last_sent_at = sig, now

@@ -1,0 +1,75 @@
+"""The navigator's view of the fleet without Zenoh: latest messages, LiDAR checks, requests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from services.navigator.fleet_state import FleetState
+from shared.config import DoorCheckConfig, FleetConfig
+from shared.messages import (
+    Clock,
+    DoorMode,
+    DoorState,
+    LiftRequestType,
+    PointCloud,
+    Pose2D,
+    PoseEstimate,
+)
+
+
+def state() -> FleetState:
+    cfg = FleetConfig()
+    return FleetState(
+        cfg.robot.name,
+        cfg.navigator.door_check,
+        cfg.robot.lidar_height_m,
+        cfg.robot.clearance_half_width_m,
+    )
+
+
+def test_the_clearance_half_width_is_the_one_the_navigator_ran_with() -> None:
+    assert state().half_width_m == 0.375
+    assert state().door_check == DoorCheckConfig()
+
+
+def test_nothing_is_known_before_the_first_messages() -> None:
+    s = state()
+    assert s.now() == 0.0 and s.pose() is None and s.door_mode("d1") is None
+    assert s.lidar_door_state(1.0, 0.0, 1.0) == (-1.0, "unknown")
+    assert s.lane_blocked((1.0, 0.0), 0.0, 0.76, 1.0) == (-1.0, False)
+    assert s.route_request(None, "room_b") is None and s.initial_pose("2") is None
+
+
+def test_latest_messages_and_the_door_check_on_the_latest_scan() -> None:
+    s = state()
+    s.on_clock(Clock(stamp=3.0, tick=150, dt=0.02))
+    s.on_pose(PoseEstimate(3.0, Pose2D(0.0, 0.0, 0.0, "1"), np.eye(3)))
+    s.on_door_state(DoorState(3.0, "d1", DoorMode.OPEN))
+    wall = np.array([[1.0, y, 0.0] for y in np.linspace(-0.3, 0.3, 40)], np.float32)
+    s.on_scan(PointCloud(2.9, "lidar", wall))
+    assert s.now() == 3.0 and s.door_mode("d1") == DoorMode.OPEN
+    assert s.lidar_door_state(1.0, 0.0, 1.0) == (2.9, "closed")
+    assert s.lane_blocked((1.0, 0.0), 0.0, 0.5, 1.0) == (2.9, True)
+
+
+def test_a_mission_gets_its_session_and_avoid_set() -> None:
+    s = state()
+    s.on_pose(PoseEstimate(0.0, Pose2D(1.0, 2.0, 0.5, "1"), np.eye(3)))
+    s.new_mission("g1")
+    s.avoid("door_ab")
+    req = s.route_request(None, "room_b")
+    assert req.avoid == ["door_ab"] and req.start == Pose2D(1.0, 2.0, 0.5, "1")
+    lift = s.lift_request("lift_a", "2")
+    assert (lift.session_id, lift.request_type, lift.destination_floor) == (
+        "chair1-g1",
+        LiftRequestType.AGV_MODE,
+        "2",
+    )
+    assert s.lift_release("lift_a").request_type == LiftRequestType.END_SESSION
+    s.new_mission("g2")
+    assert s.route_request(None, "room_b").avoid == [] and s.session_id() == "chair1-g2"
+    assert s.initial_pose("2").pose == Pose2D(1.0, 2.0, 0.5, "2")
+    assert s.event_message("fallback", "x").severity == "warning"
+    assert s.event_message("safety_clear", "x").severity == "info"
+    assert s.door_request("d1", DoorMode.OPEN).requester_id == "chair1"
+    assert len(s.stop_path().waypoints) == 0

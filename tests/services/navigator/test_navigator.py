@@ -1,0 +1,218 @@
+"""The navigator's core without Zenoh: real mission trees against the scripted fleet.
+
+The fleet fake (tests/behaviours/fleet_fake.py) answers route requests from a queue and
+is a perfect controller on demand; what the navigator publishes is recorded.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from services.navigator.navigator import Navigator
+from shared.codec import decode, encode
+from shared.config import FleetConfig, NavigatorConfig
+from shared.messages import (
+    Availability,
+    DoorMode,
+    FollowStatus,
+    NavGoal,
+    NavStatus,
+    Phase,
+    Pose2D,
+    RouteReply,
+    TreeSnapshot,
+)
+from tests.behaviours.fleet_fake import ScriptedFleet, door, leg, route
+
+
+class Recorder:
+    """The navigator's output, kept."""
+
+    def __init__(self) -> None:
+        self.statuses: list[NavStatus] = []
+        self.trees: list[TreeSnapshot] = []
+        self.routes: list[RouteReply] = []
+        self.unavailable: list[Availability] = []
+
+    def publish_status(self, status: NavStatus) -> None:
+        self.statuses.append(decode(encode(status), NavStatus))  # as a subscriber gets it
+
+    def publish_tree(self, snapshot: TreeSnapshot) -> None:
+        self.trees.append(snapshot)
+
+    def publish_route(self, route: RouteReply) -> None:
+        self.routes.append(route)
+
+    def mark_unavailable(self, update: Availability) -> None:
+        self.unavailable.append(update)
+
+
+@pytest.fixture(autouse=True)
+def fresh_blackboard():
+    py_trees.blackboard.Blackboard.clear()
+    yield
+    py_trees.blackboard.Blackboard.clear()
+
+
+def navigator(fleet: ScriptedFleet, **nav) -> tuple[Navigator, Recorder]:
+    cfg = FleetConfig(navigator=NavigatorConfig(**nav))
+    out = Recorder()
+    return Navigator.from_config(cfg, fleet, out), out
+
+
+def step(nav: Navigator, fleet: ScriptedFleet) -> NavStatus:
+    nav.step(fleet.t)
+    return nav.status
+
+
+def through_the_door(nav: Navigator, fleet: ScriptedFleet, door_id: str = "d1") -> None:
+    """From leg 0 following: arrive, correct, turn; the navigator then waits for the door."""
+    for _ in ("leg 0", "correct", "turn"):
+        fleet.arrive()
+        step(nav, fleet)
+    assert nav.status.phase == Phase.VERIFY
+    assert nav.status.action.startswith(f"Door {door_id} ")
+
+
+AROUND = RouteReply(True, leg("a"), legs=[leg("a.0")], checkpoints=[])  # no door on the way
+
+
+def test_a_door_that_never_opens_is_avoided_and_the_route_planned_again() -> None:
+    first = route(door())
+    fleet = ScriptedFleet(None, routes=[first, AROUND])
+    nav, out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    assert out.routes == [first] and fleet.route_requests[0][2] == []
+    through_the_door(nav, fleet)
+    fleet.t = 61.0  # the building never reports the door open
+    status = step(nav, fleet)
+    reason = "WaitForDoorOpen d1: timed out after 60 s"
+    assert out.unavailable == [Availability(61.0, "d1", False, reason)]
+    assert fleet.avoided == {"d1"} and ("fallback", f"avoiding d1: {reason}") in fleet.events
+    assert (status.state, status.phase, status.action) == ("running", Phase.PLAN, "re-plan")
+    step(nav, fleet)
+    assert fleet.route_requests[-1] == (None, "room_b", ["d1"])  # around it
+    assert out.routes == [first, AROUND]
+    assert nav.status.action == "Leg 0 (1/1)"
+    fleet.arrive()
+    status = step(nav, fleet)
+    assert (status.state, status.reason, status.progress) == ("succeeded", "arrived", 1.0)
+    assert out.statuses[-1].state == "succeeded"
+
+
+def test_after_max_replans_the_mission_fails_with_every_reason() -> None:
+    fleet = ScriptedFleet(None, routes=[route(door()), route(door(door_id="d2"))])
+    nav, out = navigator(fleet, max_replans=1)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    through_the_door(nav, fleet, "d1")
+    fleet.t = 61.0
+    step(nav, fleet)  # d1 blocked: re-plan 1 of 1
+    step(nav, fleet)
+    assert out.routes[-1].checkpoints[0].id == "d2"
+    through_the_door(nav, fleet, "d2")
+    fleet.t = 130.0
+    status = step(nav, fleet)
+    assert status.state == "failed"
+    assert status.reason == (
+        "WaitForDoorOpen d1: timed out after 60 s; then WaitForDoorOpen d2: timed out after 60 s"
+    )
+    assert [u.name for u in out.unavailable] == ["d1"]  # the last one is not re-planned
+    assert [r[2] for r in fleet.route_requests] == [[], ["d1"]]
+    assert fleet.stops > 0  # the safe stop ran
+
+
+def test_progress_rises_to_one_and_the_action_names_the_running_step() -> None:
+    fleet = ScriptedFleet(route(door()))
+    nav, out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", goal=Pose2D(6.0, 0.0, 0.0, "1")))
+    seen = [nav.status]
+
+    def tick() -> None:
+        fleet.t += 0.1
+        seen.append(step(nav, fleet))
+
+    def follow(path_id: str) -> None:  # the controller reports its way along a leg
+        for p in (0.0, 0.3, 0.6, 0.9):
+            fleet.follow = FollowStatus(fleet.t, path_id, "following", p, 1.0, 0.0)
+            tick()
+        fleet.arrive()
+        tick()
+
+    tick()
+    follow("r.0")
+    for _ in ("correct", "turn"):
+        fleet.arrive()
+        tick()
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):  # three LiDAR scans agree
+        tick()
+    assert nav.status.phase == Phase.PASS
+    fleet.arrive()  # through the door (odometry)
+    tick()
+    follow("r.1")
+
+    progress = [s.progress for s in seen]
+    assert progress[0] == 0.0 and progress[-1] == 1.0 and seen[-1].state == "succeeded"
+    assert all(a <= b for a, b in zip(progress, progress[1:], strict=False)), progress
+    running = [(s.action, s.phase) for s in seen if s.state == "running" and s.action]
+    steps = list(dict.fromkeys(running))  # in order, once each
+    assert steps == [
+        ("Leg 0 (1/3)", Phase.FOLLOW),
+        ("Door d1 (2/3)", Phase.CORRECT),
+        ("Door d1 (2/3)", Phase.TURN),
+        ("Door d1 (2/3)", Phase.VERIFY),
+        ("Door d1 (2/3)", Phase.PASS),
+        ("Leg 1 (3/3)", Phase.FOLLOW),
+    ]
+    assert all(type(s.phase) is str for s in out.statuses)  # plain strings on the wire
+
+
+def test_cancel_stops_the_chair_and_a_later_goal_starts_cleanly() -> None:
+    fleet = ScriptedFleet(route(door()))
+    nav, out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.arrive()
+    step(nav, fleet)
+    assert nav.status.phase == Phase.CORRECT
+    tree, stops, sent = nav.tree, fleet.stops, len(fleet.sent)
+    nav.on_goal(NavGoal(1.0, "", cancel=True))
+    assert (nav.status.state, nav.status.reason) == ("cancelled", "cancelled by request")
+    assert nav.status.progress == pytest.approx(1 / 3)  # leg 0 of 3 was done
+    assert fleet.stops > stops and tree.root.status == Status.INVALID
+    fleet.t = 1.0
+    step(nav, fleet)
+    assert len(fleet.sent) == sent  # nothing ticks any more
+    assert out.statuses[-1].state == "cancelled"
+    fleet.follow = FollowStatus(fleet.t, "", "idle", 0.0, 0.0, 0.0)  # the controller stopped
+    nav.on_goal(NavGoal(2.0, "g2", place="room_b"))
+    assert (nav.status.goal_id, nav.status.state, nav.status.phase) == ("g2", "running", "")
+    assert fleet.session == "chair1-g2" and fleet.avoided == set()
+    status = step(nav, fleet)
+    assert len(fleet.route_requests) == 2 and len(out.routes) == 2
+    assert (status.action, status.phase, status.progress) == ("Leg 0 (1/3)", Phase.FOLLOW, 0.0)
+    assert fleet.sent[-1].path_id == "r.0"
+
+
+def test_a_goal_with_neither_pose_nor_place_is_ignored(caplog) -> None:
+    fleet = ScriptedFleet(route(door()))
+    nav, out = navigator(fleet)
+    before = nav.status
+    with caplog.at_level(logging.WARNING):
+        nav.on_goal(NavGoal(0.0, "g3"))
+    assert "goal g3 ignored: give a goal pose or a place" in caplog.text
+    assert nav.status is before and nav.tree is None
+    step(nav, fleet)
+    assert fleet.route_requests == [] and out.statuses[-1] == before
+
+
+def test_a_phase_travels_as_its_plain_string() -> None:
+    status = decode(encode(NavStatus(1.0, "g1", "running", "Door d1 (2/3)", Phase.VERIFY)))
+    assert status.phase == "verify" and type(status.phase) is str
+    assert decode(encode(NavStatus(1.0, "g1", "idle", phase=Phase.IDLE))).phase == ""
