@@ -289,6 +289,10 @@ class ControllerConfig:
     dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
     dock_speed: float = field(default=0.15, metadata=check(_positive))
     dock_turn_rate: float = field(default=0.5, metadata=check(_positive))
+    dock_speed_gain: float = field(default=0.8, metadata=check(_positive))
+    dock_turn_gain: float = field(default=2.0, metadata=check(_positive))
+    dock_near_m: float = field(default=0.1, metadata=check(_positive))
+    dock_reverse_reach_m: float = field(default=1.0, metadata=check(_non_negative))
     mpc: MPCConfig = field(default_factory=MPCConfig)
 
 

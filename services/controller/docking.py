@@ -26,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 from services.controller.command import Command
+from shared.config import ControllerConfig, RobotConfig
 from shared.geometry import angle_between, wrap_angle
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
@@ -37,23 +38,37 @@ SWITCH_RAD = math.radians(20)  # hysteresis of the forwards / backwards choice
 
 @dataclass
 class DockLimits:
-    """Tolerances, gains and speed caps of one docking manoeuvre."""
+    """Tolerances, gains and speed caps of one docking manoeuvre (``controller.dock_*``)."""
 
-    position_tolerance_m: float = 0.05
-    heading_tolerance_rad: float = math.radians(1.0)
-    max_speed: float = 0.15
-    max_turn: float = 0.5
-    speed_gain: float = 0.8  # 1/s: v = gain * remaining distance
-    turn_gain: float = 2.0  # 1/s: w = gain * heading error
-    near_m: float = 0.1
-    reverse_reach_m: float = 1.0
+    position_tolerance_m: float
+    heading_tolerance_rad: float
+    max_speed: float
+    max_turn: float
+    speed_gain: float  # 1/s: v = gain * remaining distance
+    turn_gain: float  # 1/s: w = gain * heading error
+    near_m: float
+    reverse_reach_m: float
+
+    @classmethod
+    def from_config(cls, cfg: ControllerConfig, robot: RobotConfig) -> DockLimits:
+        """The limits the fleet runs with: controller.dock_* capped by the chair's limits."""
+        return cls(
+            position_tolerance_m=cfg.dock_tolerance_m,
+            heading_tolerance_rad=math.radians(cfg.dock_heading_tolerance_deg),
+            max_speed=min(cfg.dock_speed, robot.max_speed),
+            max_turn=min(cfg.dock_turn_rate, robot.max_turn_rate),
+            speed_gain=cfg.dock_speed_gain,
+            turn_gain=cfg.dock_turn_gain,
+            near_m=cfg.dock_near_m,
+            reverse_reach_m=cfg.dock_reverse_reach_m,
+        )
 
 
 class Docker:
     """Drives to one pose (x, y, heading); ``set_goal`` starts, ``clear`` stops."""
 
-    def __init__(self, limits: DockLimits | None = None) -> None:
-        self.limits = limits or DockLimits()
+    def __init__(self, limits: DockLimits) -> None:
+        self.limits = limits
         self.goal: tuple[float, float, float] | None = None
         self.stage = "start"
         self._start_error = 0.0

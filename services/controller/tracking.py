@@ -13,8 +13,6 @@ speeds and points.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
@@ -32,14 +30,7 @@ class Tracker:
     def __init__(self, cfg: ControllerConfig, robot: RobotConfig, site: Site | None) -> None:
         self.cfg = cfg
         self.pursuit = PathFollower(cfg, robot)
-        self.docker = Docker(
-            DockLimits(
-                position_tolerance_m=cfg.dock_tolerance_m,
-                heading_tolerance_rad=math.radians(cfg.dock_heading_tolerance_deg),
-                max_speed=min(cfg.dock_speed, robot.max_speed),
-                max_turn=min(cfg.dock_turn_rate, robot.max_turn_rate),
-            )
-        )
+        self.docker = Docker(DockLimits.from_config(cfg, robot))
         self.mpc: SamplingMPC | None = None
         self.fields: dict[str, tuple[np.ndarray, float, tuple[float, float]]] = {}
         self.floor = ""

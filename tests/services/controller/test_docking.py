@@ -7,9 +7,11 @@ import math
 import pytest
 
 from services.controller.docking import Docker, DockLimits
+from shared.config import ControllerConfig, RobotConfig
 from shared.geometry import wrap_angle
 
 RATE = 25.0
+DOCK = DockLimits.from_config(ControllerConfig(), RobotConfig())  # the fleet's limits
 LAG_S = 0.25  # first-order motor lag, as the simulator's chair
 
 
@@ -45,7 +47,7 @@ SEED_CASES = {
 
 @pytest.mark.parametrize("case", sorted(SEED_CASES))
 def test_seed_cases_end_within_tolerance_in_under_10_s(case: str) -> None:
-    docker = Docker(DockLimits())
+    docker = Docker(DOCK)
     docker.set_goal(0.0, 0.0, 0.0)
     x, y, th, t, _ = run(docker, *SEED_CASES[case])
     assert math.hypot(x, y) <= 0.15
@@ -54,7 +56,7 @@ def test_seed_cases_end_within_tolerance_in_under_10_s(case: str) -> None:
 
 
 def test_a_sideways_error_is_driven_out_too() -> None:
-    docker = Docker(DockLimits())
+    docker = Docker(DOCK)
     docker.set_goal(0.0, 0.0, 0.0)
     x, y, th, t, _ = run(docker, -0.3, 0.4, 0.0)  # two turns of 53 deg and 0.5 m
     assert math.hypot(x, y) <= 0.05 + 0.01 and abs(math.degrees(th)) <= 1.0 + 0.5
@@ -62,14 +64,14 @@ def test_a_sideways_error_is_driven_out_too() -> None:
 
 
 def test_backs_up_to_a_target_behind_instead_of_turning_round() -> None:
-    docker = Docker(DockLimits())
+    docker = Docker(DOCK)
     docker.set_goal(0.0, 0.0, 0.0)
     cmd = docker.step(0.5, 0.0, 0.0)
     assert cmd.v < 0.0 and abs(cmd.w) < 1e-9
 
 
 def test_speed_cap_holds_for_idle_motion() -> None:
-    docker = Docker(DockLimits())
+    docker = Docker(DOCK)
     docker.set_goal(-0.12, 0.0, 0.0, max_speed=0.05)
     x, y, th, t, top = run(docker, 0.0, 0.0, 0.0)
     assert top <= 0.05 + 1e-9
@@ -77,7 +79,7 @@ def test_speed_cap_holds_for_idle_motion() -> None:
 
 
 def test_stale_pose_and_no_goal_give_zero() -> None:
-    docker = Docker()
+    docker = Docker(DOCK)
     assert docker.step(0.0, 0.0, 0.0).state == "idle"
     docker.set_goal(1.0, 0.0, 0.0)
     cmd = docker.step(0.0, 0.0, 0.0, pose_fresh=False)
@@ -86,7 +88,7 @@ def test_stale_pose_and_no_goal_give_zero() -> None:
 
 def test_a_pose_across_the_corridor_facing_the_other_way_turns_first_then_backs_up() -> None:
     # facing a closed car door 1.5 m ahead; the goal is 0.5 m nearer it, facing away
-    docker = Docker(DockLimits())
+    docker = Docker(DOCK)
     docker.set_goal(0.0, 0.5, -math.pi / 2)
     first = docker.step(0.0, 0.0, math.pi / 2)
     assert first.v == 0.0 and abs(first.w) > 0  # turns on the spot first
