@@ -406,6 +406,9 @@ class NavStatus(Msg):
     progress: float = 0.0
 
 
+TERMINAL_STATES = ("succeeded", "failed", "cancelled")  # NavStatus.state once a mission ended
+
+
 @message("tree_node")
 @dataclass
 class TreeNode(Msg):

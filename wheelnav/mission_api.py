@@ -12,11 +12,9 @@ import contextlib
 import threading
 import time
 
-from shared.messages import NavGoal, NavStatus, Pose2D
+from shared.messages import TERMINAL_STATES, NavGoal, NavStatus, Pose2D
 from shared.topics import Keys
 from wheelnav.topic_tools.cli import add_connect_argument, client_bus
-
-TERMINAL = ("succeeded", "failed", "cancelled")
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -74,7 +72,7 @@ def run_go(args: argparse.Namespace) -> int:
         if args.wait and line != last[0]:
             print(line, flush=True)
             last[0] = line
-        if s.state in TERMINAL:
+        if s.state in TERMINAL_STATES:
             result["state"] = s.state
             done.set()
 

@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from shared.service import add_override_argument
-from wheelnav.mission.run import MissionRun, format_report, write_report
+from wheelnav.mission.report import format_report, write_report
+from wheelnav.mission.run import MissionRun
 from wheelnav.mission.scenario import load_scenario
 
 

@@ -8,7 +8,6 @@ scenario's time limit. The report is printed and, with ``--report``, written as 
 
 from __future__ import annotations
 
-import json
 import socket
 import sys
 import tempfile
@@ -38,7 +37,8 @@ from shared.topics import Keys
 from shared.transport import Bus
 from wheelnav.launcher.fleet import services_for, viz_recorder
 from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
-from wheelnav.mission.scenario import Recorder, Scenario
+from wheelnav.mission.report import Recorder
+from wheelnav.mission.scenario import Scenario
 
 NAME = "mission"
 PROGRESS_EVERY_S = 5.0
@@ -219,56 +219,3 @@ class _Null:
 
     def isatty(self) -> bool:
         return False
-
-
-def format_report(report: dict[str, Any]) -> str:
-    """A short human-readable summary of a report."""
-    lines = [
-        f"mission {report['scenario']}: {'SUCCESS' if report['success'] else 'FAILURE'}"
-        f" ({report['reason']})",
-        f"  sim time {report['sim_time_s']:.1f} s, wall time {report['wall_time_s']:.1f} s, "
-        f"path {report['path_length_m']:.2f} m",
-        f"  collisions {report['collisions']}, min clearance "
-        f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m",
-    ]
-    if report.get("cross_track_rms_m") is not None:
-        lines.append(f"  cross-track error on legs: RMS {100 * report['cross_track_rms_m']:.1f} cm")
-    loc = report["localisation_error"]
-    if loc["samples"]:
-        lines.append(
-            f"  localisation error: RMS {100 * loc['rms_m']:.1f} cm, max "
-            f"{100 * loc['max_m']:.1f} cm, heading RMS {loc['rms_deg']:.2f} deg"
-        )
-    for c in report.get("checkpoints", []):
-        lines.append("  " + format_checkpoint(c))
-    for e in report.get("events", []):
-        if e["kind"] in ("safety_stop", "safety_clear"):
-            lines.append(f"  {e['kind']:12s} t={e['t']:6.1f} s  {e['detail']}")
-    for fallback in report.get("fallbacks", []):
-        lines.append(f"  fallback: {fallback}")
-    for p in report["phases"]:
-        end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
-        lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")
-    return "\n".join(lines)
-
-
-def format_checkpoint(c: dict[str, Any]) -> str:
-    """One line per checkpoint: result, Phase 0 figures, wait, crossing, phase times."""
-    head = f"{c['kind']:8s} {c['id']:14s} {c.get('result', 'passed'):9s}"
-    corr = c.get("correction_s")
-    fix = f"position error {c['position_error_m']} m, heading {c['heading_error_deg']} deg" + (
-        f" after {corr} s" if corr is not None else ""
-    )
-    extra = (
-        f"lateral offset {c['lateral_offset_m']} m"
-        if c["kind"] == "door"
-        else f"to floor {c['to_floor']}"
-    )
-    if c.get("closing_at_s") is not None:
-        extra += f", door closing at {c['closing_at_s']} s: stopped within {c['closing_stop_m']} m"
-    phases = " / ".join(f"{k} {v}" for k, v in c.get("phases", {}).items())
-    return f"{head} {fix}, wait {c['wait_s']} s, {extra}" + (f"; {phases} s" if phases else "")
-
-
-def write_report(report: dict[str, Any], path: str | Path) -> None:
-    Path(path).write_text(json.dumps(report, indent=2) + "\n")

@@ -9,7 +9,8 @@ import pytest
 from shared.config import ConfigError
 from shared.messages import NavStatus, SimStatus
 from tests.conftest import ROOT
-from wheelnav.mission.scenario import Recorder, load_scenario
+from wheelnav.mission.report import Recorder
+from wheelnav.mission.scenario import load_scenario
 
 
 def test_demo_scenario_loads() -> None:

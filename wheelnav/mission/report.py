@@ -1,0 +1,203 @@
+"""The mission report, without processes or Zenoh: what a run's statuses add up to.
+
+:class:`Recorder` turns the stream of statuses a run produces into the report (a dict,
+written as JSON); :func:`format_report` prints it for people.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from shared.geometry import wrap_angle
+from shared.messages import TERMINAL_STATES, NavStatus, SimStatus
+from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
+
+
+@dataclass
+class Phase:
+    name: str
+    start_s: float
+    end_s: float | None = None
+
+
+@dataclass
+class Recorder:
+    """Collects what a run shows into the mission report."""
+
+    goal_id: str
+    state: str = "pending"
+    reason: str = ""
+    sim_time_s: float = 0.0
+    collisions: int = 0
+    min_clearance_m: float = math.inf
+    path_length_m: float = 0.0
+    phases: list[Phase] = field(default_factory=list)
+    events: list[dict[str, Any]] = field(default_factory=list)
+    _last_xy: tuple[float, float] | None = None
+    _truth: PoseHistory = field(default_factory=PoseHistory)
+    _loc_sq: list[tuple[float, float]] = field(default_factory=list)
+    _track_sq: list[float] = field(default_factory=list)
+    checkpoints: CheckpointLog = field(default_factory=CheckpointLog)
+
+    @property
+    def finished(self) -> bool:
+        return self.state in TERMINAL_STATES or self.state == "timeout"
+
+    def on_status(self, msg: NavStatus) -> None:
+        if msg.goal_id != self.goal_id or self.finished:
+            return
+        phase = msg.phase if msg.state == "running" else ""
+        current = self.phases[-1] if self.phases and self.phases[-1].end_s is None else None
+        if phase and (current is None or current.name != phase):
+            if current is not None:
+                current.end_s = msg.stamp
+            self.phases.append(Phase(phase, msg.stamp))
+        if msg.state in TERMINAL_STATES:
+            if current is not None:
+                current.end_s = msg.stamp
+            self.state, self.reason, self.sim_time_s = msg.state, msg.reason, msg.stamp
+        elif self.state == "pending":
+            self.state = "running"
+
+    def on_sim_status(self, msg: SimStatus) -> None:
+        if self.finished:
+            return  # the report covers the mission, not the shutdown after it
+        self.collisions = max(self.collisions, msg.collisions)
+        self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
+
+    def on_truth(self, x: float, y: float, theta: float = 0.0, stamp: float | None = None) -> None:
+        if self.finished:
+            return
+        if stamp is not None:
+            self._truth.add(stamp, (x, y, theta))
+        if self._last_xy is not None:
+            self.path_length_m += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
+        self._last_xy = (x, y)
+
+    def on_pose(self, stamp: float, x: float, y: float, theta: float) -> None:
+        """A pose estimate: compared with the ground truth of the same tick."""
+        truth = self._truth.at(stamp)
+        if truth is None or self.finished:
+            return
+        dth = wrap_angle(theta - truth[2])
+        self._loc_sq.append(((x - truth[0]) ** 2 + (y - truth[1]) ** 2, dth**2))
+
+    def on_follow(self, state: str, cross_track: float, precise: bool) -> None:
+        """The controller's cross-track error while following a leg (not door passes)."""
+        if state == "following" and not precise and not self.finished:
+            self._track_sq.append(cross_track**2)
+
+    def localisation_error(self) -> dict[str, float | None]:
+        """RMS and max position error (m) and RMS heading error (deg) of the pose estimates."""
+        if not self._loc_sq:
+            return {"rms_m": None, "max_m": None, "rms_deg": None, "samples": 0}
+        sq = np.asarray(self._loc_sq)
+        return {
+            "rms_m": round(float(np.sqrt(sq[:, 0].mean())), 4),
+            "max_m": round(float(np.sqrt(sq[:, 0].max())), 4),
+            "rms_deg": round(float(np.degrees(np.sqrt(sq[:, 1].mean()))), 3),
+            "samples": len(sq),
+        }
+
+    def on_time(self, stamp: float, limit_s: float) -> None:
+        if self.finished:
+            return
+        self.sim_time_s = stamp
+        if stamp >= limit_s and not self.finished:
+            self.state = "timeout"
+            self.reason = f"time limit of {limit_s:g} s reached"
+            for phase in self.phases:
+                phase.end_s = phase.end_s if phase.end_s is not None else stamp
+
+    def report(self, scenario: str, wall_time_s: float) -> dict[str, Any]:
+        success = self.state == "succeeded" and self.collisions == 0
+        reason = self.reason or self.state
+        if self.state == "succeeded" and self.collisions:
+            reason = f"arrived, but with {self.collisions} collision(s)"
+        return {
+            "scenario": scenario,
+            "success": success,
+            "reason": reason,
+            "state": self.state,
+            "collisions": self.collisions,
+            "min_clearance_m": round(self.min_clearance_m, 4)
+            if math.isfinite(self.min_clearance_m)
+            else None,
+            "sim_time_s": round(self.sim_time_s, 3),
+            "wall_time_s": round(wall_time_s, 3),
+            "path_length_m": round(self.path_length_m, 3),
+            "localisation_error": self.localisation_error(),
+            "cross_track_rms_m": round(float(np.sqrt(np.mean(self._track_sq))), 4)
+            if self._track_sq
+            else None,
+            "checkpoints": self.checkpoints.rows(self.sim_time_s),
+            "fallbacks": [e["detail"] for e in self.events if e["kind"] == "fallback"],
+            "phases": [
+                {
+                    "name": p.name,
+                    "start_s": round(p.start_s, 3),
+                    "end_s": None if p.end_s is None else round(p.end_s, 3),
+                }
+                for p in self.phases
+            ],
+            "events": self.events,
+        }
+
+
+def format_report(report: dict[str, Any]) -> str:
+    """A short human-readable summary of a report."""
+    lines = [
+        f"mission {report['scenario']}: {'SUCCESS' if report['success'] else 'FAILURE'}"
+        f" ({report['reason']})",
+        f"  sim time {report['sim_time_s']:.1f} s, wall time {report['wall_time_s']:.1f} s, "
+        f"path {report['path_length_m']:.2f} m",
+        f"  collisions {report['collisions']}, min clearance "
+        f"{report['min_clearance_m'] if report['min_clearance_m'] is not None else '-'} m",
+    ]
+    if report.get("cross_track_rms_m") is not None:
+        lines.append(f"  cross-track error on legs: RMS {100 * report['cross_track_rms_m']:.1f} cm")
+    loc = report["localisation_error"]
+    if loc["samples"]:
+        lines.append(
+            f"  localisation error: RMS {100 * loc['rms_m']:.1f} cm, max "
+            f"{100 * loc['max_m']:.1f} cm, heading RMS {loc['rms_deg']:.2f} deg"
+        )
+    for c in report.get("checkpoints", []):
+        lines.append("  " + format_checkpoint(c))
+    for e in report.get("events", []):
+        if e["kind"] in ("safety_stop", "safety_clear"):
+            lines.append(f"  {e['kind']:12s} t={e['t']:6.1f} s  {e['detail']}")
+    for fallback in report.get("fallbacks", []):
+        lines.append(f"  fallback: {fallback}")
+    for p in report["phases"]:
+        end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
+        lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")
+    return "\n".join(lines)
+
+
+def format_checkpoint(c: dict[str, Any]) -> str:
+    """One line per checkpoint: result, Phase 0 figures, wait, crossing, phase times."""
+    head = f"{c['kind']:8s} {c['id']:14s} {c.get('result', 'passed'):9s}"
+    corr = c.get("correction_s")
+    fix = f"position error {c['position_error_m']} m, heading {c['heading_error_deg']} deg" + (
+        f" after {corr} s" if corr is not None else ""
+    )
+    extra = (
+        f"lateral offset {c['lateral_offset_m']} m"
+        if c["kind"] == "door"
+        else f"to floor {c['to_floor']}"
+    )
+    if c.get("closing_at_s") is not None:
+        extra += f", door closing at {c['closing_at_s']} s: stopped within {c['closing_stop_m']} m"
+    phases = " / ".join(f"{k} {v}" for k, v in c.get("phases", {}).items())
+    return f"{head} {fix}, wait {c['wait_s']} s, {extra}" + (f"; {phases} s" if phases else "")
+
+
+def write_report(report: dict[str, Any], path: str | Path) -> None:
+    Path(path).write_text(json.dumps(report, indent=2) + "\n")
