@@ -12,7 +12,7 @@ import argparse
 
 import rerun as rr
 
-from services.viz import viz
+from services.viz import rerun_log
 from shared.messages import (
     NavStatus,
     Odometry,
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> None:
             site = load_site(cfg.site)
             s = cfg.sim.start
             floor = site.start_pose(s.place, s.x, s.y, s.theta, s.floor)[3]
-            viz.log_site(site, site.floor(floor))
+            rerun_log.log_site(site, site.floor(floor))
         except SiteError as exc:
             svc.log.warning("no map to show: %s", exc)
         latest: dict[str, PoseEstimate] = {}
@@ -61,25 +61,27 @@ def main(argv: list[str] | None = None) -> None:
         def on_pose(msg: PoseEstimate) -> None:
             latest["pose"] = msg
             clock["t"] = msg.stamp
-            viz.log_pose(msg)
+            rerun_log.log_pose(msg)
 
         bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, on_pose)
-        bus.subscribe(svc.declare("subscribes", keys.ground_truth), Odometry, viz.log_truth)
-        bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, viz.log_command)
+        bus.subscribe(svc.declare("subscribes", keys.ground_truth), Odometry, rerun_log.log_truth)
+        bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, rerun_log.log_command)
         bus.subscribe(
             svc.declare("subscribes", keys.scan),
             PointCloud,
-            lambda m: viz.log_scan(m, latest.get("pose")),
+            lambda m: rerun_log.log_scan(m, latest.get("pose")),
         )
         bus.subscribe(
-            svc.declare("subscribes", keys.path), Path, lambda m: viz.log_path(m, clock["t"])
+            svc.declare("subscribes", keys.path), Path, lambda m: rerun_log.log_path(m, clock["t"])
         )
-        bus.subscribe(svc.declare("subscribes", keys.nav_status), NavStatus, viz.log_nav_status)
-        bus.subscribe(svc.declare("subscribes", keys.tree), TreeSnapshot, viz.log_tree)
+        bus.subscribe(
+            svc.declare("subscribes", keys.nav_status), NavStatus, rerun_log.log_nav_status
+        )
+        bus.subscribe(svc.declare("subscribes", keys.tree), TreeSnapshot, rerun_log.log_tree)
         bus.subscribe(
             svc.declare("subscribes", keys.nav_route),
             RouteReply,
-            lambda m: viz.log_route(m, clock["t"]),
+            lambda m: rerun_log.log_route(m, clock["t"]),
         )
         svc.wait()
         rr.disconnect()
