@@ -12,7 +12,8 @@ loses the order in which samples of different keys arrived (a pose published bef
 clock tick could be handled after it). The bus therefore only enqueues on Zenoh's
 network thread and delivers everything (samples, queries, replies, liveliness changes)
 from one dispatcher thread, in arrival order, holding :attr:`Bus.lock`. Lockstep
-determinism rests on this.
+determinism rests on this, and on publishing with congestion control BLOCK: with zenoh's
+default (DROP) a router whose queue to a busy subscriber is full drops samples silently.
 """
 
 from __future__ import annotations
@@ -108,7 +109,12 @@ class Bus:
         """Encode and put ``msg`` on ``key`` (the publisher is declared once, on first use)."""
         pub = self._publishers.get(key)
         if pub is None:
-            pub = self.session.declare_publisher(key)
+            # BLOCK, not zenoh's default DROP: a put that meets a full queue (a router
+            # forwarding 300 kB scans to a busy subscriber) waits instead of vanishing.
+            # A dropped scan or pose made lockstep runs differ under load.
+            pub = self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.BLOCK
+            )
             self._publishers[key] = pub
         pub.put(encode(msg))
 

@@ -85,9 +85,14 @@ class MissionRun:
         wall_start = time.monotonic()
         with tempfile.TemporaryDirectory(prefix="wheelnav-mission-") as tmp:
             cfg_path = Path(tmp) / "fleet.yaml"
-            cfg_path.write_text(yaml.safe_dump(config_mod.to_dict(cfg), sort_keys=False))
+            fleet_cfg = config_mod.to_dict(cfg)
+            if NAME in self._participants() and NAME not in cfg.sim.start_after:
+                # the clock waits for this runner too: the goal goes out at tick 0 of every run
+                fleet_cfg["sim"]["start_after"] = [*cfg.sim.start_after, NAME]
+            cfg_path.write_text(yaml.safe_dump(fleet_cfg, sort_keys=False))
             bus = open_router(endpoint)
             self._wire(bus)
+            bus.declare_alive(self.keys.key("alive", service=NAME))
             specs = services_for("sim") + ([viz_recorder(self.rrd)] if self.rrd else [])
             out = self.fleet_output or (_Null() if self.quiet else self.out)
             self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
@@ -111,7 +116,6 @@ class MissionRun:
                         else f"services not up: {', '.join(missing)}"
                     )
                 else:
-                    bus.declare_alive(self.keys.key("alive", service=NAME))
                     wall_limit = self.scenario.time_limit_s * 20 + 120
                     if not self.done.wait(wall_limit):
                         self.recorder.state = "failed"
@@ -159,6 +163,9 @@ class MissionRun:
                 m.stamp, m.door_name, m.current_mode == DoorMode.OPEN
             ),
         )
+
+    def _participants(self) -> set[str]:
+        return {name for names in self.scenario.config.sim.lockstep_stages for name in names}
 
     def _stage(self) -> int:
         stages = self.scenario.config.sim.lockstep_stages
