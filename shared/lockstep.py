@@ -14,9 +14,10 @@ simulator's command watchdog then stops the chair.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Sequence
 
-from shared.messages import Ack, Clock
+from shared.messages import Ack, Clock, LockstepProfile
 
 
 class Barrier:
@@ -85,9 +86,11 @@ class Participant:
         not_due = self._next_tick - period <= clock.tick < self._next_tick
         if not_due:
             return
+        started = time.perf_counter()
         self._step(clock)
+        compute_s = time.perf_counter() - started
         self._next_tick = clock.tick + period
-        ack = Ack(participant=self.name, tick=clock.tick, next_tick=self._next_tick)
+        ack = Ack(self.name, clock.tick, self._next_tick, compute_s)
         if self._holds:
             self._pending = ack
         else:
@@ -103,3 +106,46 @@ class Participant:
         if not self._holds and self._pending is not None:
             ack, self._pending = self._pending, None
             self._publish_ack(ack)
+
+
+class TickProfile:
+    """Where the simulator's wall time goes, summed since the clock started.
+
+    The simulator adds each part of a tick as it runs it; acks add their participant's
+    compute time. :meth:`message` is the :class:`LockstepProfile` that ``wheelnav bench
+    fleet`` prints.
+    """
+
+    def __init__(self, n_stages: int, dt: float) -> None:
+        self.dt = dt
+        self.ticks = 0
+        self.physics_s = self.publish_s = self.pacing_s = 0.0
+        self.stage_wait_s = [0.0] * n_stages
+        self.compute_s: dict[str, float] = {}
+        self.steps: dict[str, int] = {}
+        self._started = time.perf_counter()
+
+    def start(self) -> None:
+        """The clock starts now (waiting for the fleet is not a tick's time)."""
+        self._started = time.perf_counter()
+
+    def ack(self, msg: Ack) -> None:
+        """Count one answered step of ``msg.participant``."""
+        self.compute_s[msg.participant] = self.compute_s.get(msg.participant, 0.0) + msg.compute_s
+        self.steps[msg.participant] = self.steps.get(msg.participant, 0) + 1
+
+    def message(self, stamp: float) -> LockstepProfile:
+        names = sorted(self.compute_s)
+        return LockstepProfile(
+            stamp,
+            self.dt,
+            self.ticks,
+            time.perf_counter() - self._started,
+            self.physics_s,
+            self.publish_s,
+            self.pacing_s,
+            list(self.stage_wait_s),
+            names,
+            [self.compute_s[n] for n in names],
+            [self.steps[n] for n in names],
+        )

@@ -152,14 +152,39 @@ class Clock(Msg):
     stage: int = 0
 
 
-@message("ack")
+@message("ack", version=2)
 @dataclass
 class Ack(Msg):
-    """A lockstep participant has answered ``tick`` and will answer next at ``next_tick``."""
+    """A lockstep participant has answered ``tick`` and will answer next at ``next_tick``;
+    its step took ``compute_s`` seconds of wall time (for the lockstep profile)."""
 
     participant: str
     tick: int
     next_tick: int
+    compute_s: float = field(default=0.0, compare=False)  # a measurement, not identity
+
+
+@message("lockstep_profile")
+@dataclass
+class LockstepProfile(Msg):
+    """Where the simulator's wall time went since the clock started (cumulative sums, s).
+
+    Per tick: the simulator's own step (``physics_s``), its publishing, each lockstep
+    stage from announcing the tick to the last answer (``stage_wait_s``, one per stage) and
+    its pacing; per participant, the wall time of its steps and how many it took.
+    """
+
+    stamp: float
+    dt: float
+    ticks: int
+    wall_s: float
+    physics_s: float
+    publish_s: float
+    pacing_s: float
+    stage_wait_s: list[float] = field(default_factory=list)
+    participants: list[str] = field(default_factory=list)
+    compute_s: list[float] = field(default_factory=list)
+    steps: list[int] = field(default_factory=list)
 
 
 # --------------------------------------------------------------------------------------

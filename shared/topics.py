@@ -112,6 +112,15 @@ TOPICS: tuple[Topic, ...] = (
         "evaluation only (mission report)",
         "collisions and clearance",
     ),
+    Topic(
+        "sim_profile",
+        "{ns}/sim/profile",
+        m.LockstepProfile,
+        "pub",
+        "sim",
+        "wheelnav bench fleet",
+        "lockstep profile: where a tick's wall time goes (every 100 ticks)",
+    ),
     Topic("path", "{ns}/path", m.Path, "pub", "navigator", "controller", "path to follow"),
     Topic(
         "follow_status",

@@ -11,7 +11,7 @@ import math
 import threading
 import time
 
-from shared.lockstep import Barrier
+from shared.lockstep import Barrier, TickProfile
 from shared.messages import (
     Ack,
     BuildingBodies,
@@ -28,6 +28,7 @@ from shared.site import SiteError, load_site
 from sim.simulation import Simulation
 
 NAME = "sim"
+PROFILE_EVERY = 50  # ticks between two lockstep profiles (sim/profile)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -39,6 +40,7 @@ def main(argv: list[str] | None = None) -> None:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
         barrier = Barrier(cfg.sim.lockstep_stages)
+        profile = TickProfile(barrier.n_stages, cfg.sim.dt)
         wake = threading.Condition(bus.lock)
 
         def on_cmd(msg: Twist) -> None:
@@ -46,6 +48,7 @@ def main(argv: list[str] | None = None) -> None:
 
         def on_ack(msg: Ack) -> None:
             barrier.ack(msg)
+            profile.ack(msg)
             wake.notify_all()
 
         def on_alive(key: str, alive: bool) -> None:
@@ -62,13 +65,13 @@ def main(argv: list[str] | None = None) -> None:
         )
         bus.subscribe(svc.declare("subscribes", keys.ack), Ack, on_ack)
         bus.watch_alive(keys.key("alive"), on_alive)
-        for name in ("clock", "odom", "scan", "ground_truth", "sim_status"):
+        for name in ("clock", "odom", "scan", "ground_truth", "sim_status", "sim_profile"):
             svc.declare("publishes", keys.key(name))
 
         svc.ready()
         if cfg.sim.lockstep:
             _wait_for_fleet(svc, barrier, wake)
-        _run(svc, sim, barrier, wake)
+        _run(svc, sim, barrier, wake, profile)
         sim.close()
 
 
@@ -102,16 +105,27 @@ def _wait_for_fleet(svc: Service, barrier: Barrier, wake: threading.Condition) -
             wake.wait(0.2)
 
 
-def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condition) -> None:
+def _run(
+    svc: Service,
+    sim: Simulation,
+    barrier: Barrier,
+    wake: threading.Condition,
+    profile: TickProfile,
+) -> None:
     cfg, keys, bus = svc.cfg, svc.keys, svc.bus
     status_every = max(1, round(1.0 / (cfg.sim.status_rate_hz * cfg.sim.dt)))
     wall_start = time.monotonic()
     timeouts = 0
+    clock = time.perf_counter
+    profile.start()
     while not svc.stop_event.is_set():
+        t0 = clock()
         with wake:
             result = sim.step()
             s = sim.state
             pose = Pose2D(s.x, s.y, s.theta, sim.floor)
+        t1 = clock()
+        profile.physics_s += t1 - t0
         stamp = result.stamp
         if result.scan is not None:
             bus.publish(keys.scan, PointCloud(stamp, "lidar", result.scan))
@@ -145,11 +159,16 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
                     _finite(sim.min_clearance),
                 ),
             )
+        if result.tick % PROFILE_EVERY == 0:
+            bus.publish(keys.sim_profile, profile.message(stamp))
+        t2 = clock()
+        profile.publish_s += t2 - t1
         for stage in range(barrier.n_stages):
             with wake:
                 due = barrier.waiting_on(result.tick, stage) if cfg.sim.lockstep else []
             if stage > 0 and not due:
                 continue
+            stage_start = clock()
             bus.publish(keys.clock, Clock(stamp, result.tick, sim.dt, stage))
             if due and not _wait_stage(svc, barrier, wake, result.tick, stage):
                 timeouts += 1
@@ -169,10 +188,14 @@ def _run(svc: Service, sim: Simulation, barrier: Barrier, wake: threading.Condit
                     bus.publish(
                         events_key, Event(stamp, NAME, "lockstep_timeout", detail, "warning")
                     )
+            profile.stage_wait_s[stage] += clock() - stage_start
+        profile.ticks += 1
         if cfg.sim.realtime_factor > 0:
+            t3 = clock()
             ahead = stamp / cfg.sim.realtime_factor - (time.monotonic() - wall_start)
             if ahead > 0:
                 svc.stop_event.wait(ahead)
+            profile.pacing_s += clock() - t3
 
 
 def _wait_stage(

@@ -25,6 +25,10 @@ def samples() -> list[m.Msg]:
         m.Path(4.0, "route-1", "1", np.array([[0.0, 0.0], [1.0, 2.0]]), np.array([0.5, 0.0])),
         m.Clock(5.0, 250, 0.02, 1),
         m.Ack("controller", 250, 252),
+        m.Ack("controller", 250, 252, 0.0031),
+        m.LockstepProfile(
+            2.0, 0.02, 100, 0.8, 0.1, 0.02, 0.0, [0.3, 0.2], ["controller"], [0.25], [50]
+        ),
         m.DoorState(6.0, "door_ab", m.DoorMode.OPEN),
         m.DoorRequest(6.0, "chair1", "door_ab", m.DoorMode.OPEN),
         m.LiftState(

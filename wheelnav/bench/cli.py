@@ -9,6 +9,7 @@ BENCHES = {
     "planner": ("wheelnav.bench.planner", "A* vs pyastar2d on 800 x 4000, inflation"),
     "mpc": ("wheelnav.bench.mpc", "MPC cycle time, 1000 x 21 and 2000 x 56"),
     "sim": ("wheelnav.bench.sim", "real-time factor with the 3D LiDAR, ray casting per scan"),
+    "fleet": ("wheelnav.bench.fleet", "the whole fleet's real-time factor in lockstep, per tick"),
 }
 
 
