@@ -184,6 +184,7 @@ class LocalisationConfig:
     lost_after_scans: int = field(default=5, metadata=check(_positive))
     match_cutoff_m: float = field(default=0.4, metadata=check(_positive))
     scan_band_m: float = field(default=0.5, metadata=check(_positive))
+    rate_hz: float = field(default=50.0, metadata=check(_positive))
 
 
 def _fraction(v: float) -> str | None:

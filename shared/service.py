@@ -186,7 +186,8 @@ class Service:
         part = Participant(
             self.name, stage, rate_hz, step, lambda ack: self._publish_ack(ack_key, ack)
         )
-        self.bus.subscribe(self.declare("subscribes", self.keys.clock), Clock, part.on_clock)
+        clock_key = self.declare("subscribes", self.keys.clock_of(stage))
+        self.bus.subscribe(clock_key, Clock, part.on_clock)
         return part
 
     def _publish_ack(self, key: str, ack: Ack) -> None:

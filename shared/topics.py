@@ -37,8 +37,17 @@ TOPICS: tuple[Topic, ...] = (
         m.Clock,
         "pub",
         "sim",
-        "lockstep participants, tools",
-        "fleet time: each tick once per lockstep stage",
+        "first-stage lockstep participants, tools",
+        "fleet time: each tick, announced to the first lockstep stage",
+    ),
+    Topic(
+        "clock_stage",
+        "{ns}/clock/stage/{stage}",
+        m.Clock,
+        "pub",
+        "sim",
+        "lockstep participants of that stage",
+        "the tick announced to a later lockstep stage (1, 2, ...): only its participants wake",
     ),
     Topic(
         "ack",
@@ -261,14 +270,22 @@ class Keys:
         self.ns = f"{ROOT}/{robot}"
 
     def key(self, name: str, **parts: str) -> str:
-        """The key of topic ``name``; fill ``{source}``, ``{service}``, ``{door}`` or ``{lift}``.
+        """The key of topic ``name``; fill ``{source}``, ``{service}``, ``{door}``, ``{lift}``
+        or ``{stage}``.
 
         A part left out becomes ``*`` so the result can be subscribed to as a pattern.
         """
         topic = _BY_NAME.get(name)
         if topic is None:
             raise KeyError(f"unknown topic {name!r}; known: {', '.join(_BY_NAME)}")
-        fields = {"ns": self.ns, "source": "*", "service": "*", "door": "*", "lift": "*"}
+        fields = {
+            "ns": self.ns,
+            "source": "*",
+            "service": "*",
+            "door": "*",
+            "lift": "*",
+            "stage": "*",
+        }
         fields.update({k: check_name(k, v) for k, v in parts.items()})
         return topic.pattern.format(**fields)
 
@@ -276,6 +293,10 @@ class Keys:
         if name in _BY_NAME and "{" not in _BY_NAME[name].pattern.replace("{ns}", ""):
             return self.key(name)
         raise AttributeError(name)
+
+    def clock_of(self, stage: int) -> str:
+        """Where the simulator announces a tick to lockstep stage ``stage``."""
+        return self.clock if stage == 0 else self.key("clock_stage", stage=str(stage))
 
     def all(self) -> str:
         """A pattern matching every key of this robot."""

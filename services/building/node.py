@@ -9,8 +9,17 @@ a navigation service. A lockstep participant of the first stage.
 
 from __future__ import annotations
 
+import numpy as np
+
 from services.building.emulator import Building
-from shared.messages import Clock, DoorRequest, DoorState, LiftRequest, Odometry
+from shared.messages import (
+    BuildingBodies,
+    Clock,
+    DoorRequest,
+    DoorState,
+    LiftRequest,
+    Odometry,
+)
 from shared.service import Service
 from shared.site import SiteError, load_site
 
@@ -25,7 +34,7 @@ def main(argv: list[str] | None = None) -> None:
         except (SiteError, ValueError) as exc:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
-        clock = {"now": 0.0, "last_all": -1e9}
+        clock = {"now": 0.0, "last_all": -1e9, "bodies_at": -1e9}
 
         def on_door_request(req: DoorRequest) -> None:
             if not building.request_door(clock["now"], req):
@@ -56,7 +65,12 @@ def main(argv: list[str] | None = None) -> None:
                 clock["last_all"] = now
                 for state in building.all_states(now):
                     publish(state)
-            bus.publish(bodies_key, building.bodies(now))
+            bodies = building.bodies(now)
+            moved = _moved(bodies, clock.get("bodies"))
+            if moved or now - clock["bodies_at"] >= 1.0 / cfg.building.state_rate_hz:
+                # only what moved, each tick; everything at the state rate (a restarted sim)
+                bus.publish(bodies_key, bodies)
+                clock["bodies"], clock["bodies_at"] = bodies, now
 
         bus.subscribe(
             svc.declare("subscribes", keys.key("door_request")), DoorRequest, on_door_request
@@ -71,6 +85,15 @@ def main(argv: list[str] | None = None) -> None:
         svc.log.info("%d doors, %d lifts", len(building.doors), len(building.lifts))
         svc.every(cfg.building.rate_hz, step)
         svc.wait()
+
+
+def _moved(bodies: BuildingBodies, last: BuildingBodies | None) -> bool:
+    """Whether a door leaf, car or car door is somewhere else than in ``last``."""
+    return last is None or not (
+        np.array_equal(bodies.door_openings, last.door_openings)
+        and np.array_equal(bodies.car_elevations, last.car_elevations)
+        and np.array_equal(bodies.lift_door_openings, last.lift_door_openings)
+    )
 
 
 if __name__ == "__main__":

@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> None:
         bus.subscribe(svc.declare("subscribes", keys.initial_pose), PoseEstimate, on_initial)
         pose_key = svc.declare("publishes", keys.pose)
         svc.log.info("mode %s on floor %s", lc.mode, loc.floor)
-        svc.every(50.0, step)
+        svc.every(lc.rate_hz, step)
         svc.wait()
 
 

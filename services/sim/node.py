@@ -117,6 +117,7 @@ def _run(
     wall_start = time.monotonic()
     timeouts = 0
     clock = time.perf_counter
+    clock_keys = [keys.clock_of(stage) for stage in range(barrier.n_stages)]
     profile.start()
     while not svc.stop_event.is_set():
         t0 = clock()
@@ -169,7 +170,7 @@ def _run(
             if stage > 0 and not due:
                 continue
             stage_start = clock()
-            bus.publish(keys.clock, Clock(stamp, result.tick, sim.dt, stage))
+            bus.publish(clock_keys[stage], Clock(stamp, result.tick, sim.dt, stage))
             if due and not _wait_stage(svc, barrier, wake, result.tick, stage):
                 timeouts += 1
                 if timeouts <= 10 or timeouts % 100 == 0:

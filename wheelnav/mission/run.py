@@ -1,6 +1,7 @@
 """``wheelnav mission``: run the fleet for one scenario and write its report.
 
-Starts a private router on a free loopback port and the sim profile around it, joins
+Starts a private router process (wheelnav/launcher/router.py) on a free loopback port and
+the sim profile around it, joins
 the lockstep as the ``mission`` participant (so the goal is sent at a fixed simulation
 time), prints progress every few simulated seconds, and ends on success, failure or the
 scenario's time limit. The report is printed and, with ``--report``, written as JSON.
@@ -19,6 +20,7 @@ from typing import Any, TextIO
 import yaml
 
 from shared import config as config_mod
+from shared.config import TransportConfig
 from shared.lockstep import Participant
 from shared.messages import (
     Clock,
@@ -34,9 +36,10 @@ from shared.messages import (
     SimStatus,
 )
 from shared.topics import Keys
-from shared.transport import Bus
+from shared.transport import Bus, open_session
 from wheelnav.launcher.fleet import services_for, viz_recorder
-from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
+from wheelnav.launcher.router import RouterProcess
+from wheelnav.launcher.supervisor import Supervisor, wait_ready
 from wheelnav.mission.report import Recorder
 from wheelnav.mission.scenario import Scenario
 
@@ -90,7 +93,9 @@ class MissionRun:
                 # the clock waits for this runner too: the goal goes out at tick 0 of every run
                 fleet_cfg["sim"]["start_after"] = [*cfg.sim.start_after, NAME]
             cfg_path.write_text(yaml.safe_dump(fleet_cfg, sort_keys=False))
-            bus = open_router(endpoint)
+            router = RouterProcess(endpoint)
+            router.start()
+            bus = Bus(open_session(TransportConfig(connect=[endpoint])), NAME)
             self._wire(bus)
             bus.declare_alive(self.keys.key("alive", service=NAME))
             specs = services_for("sim") + ([viz_recorder(self.rrd)] if self.rrd else [])
@@ -123,6 +128,7 @@ class MissionRun:
             finally:
                 self.supervisor.stop()
                 bus.close()
+                router.stop()
         report = self.recorder.report(self.scenario.name, time.monotonic() - wall_start)
         return report
 
@@ -132,7 +138,7 @@ class MissionRun:
             NAME, self._stage(), 10.0, self._step, lambda ack: bus.publish(keys.ack, ack)
         )
         self._bus = bus
-        bus.subscribe(keys.clock, Clock, participant.on_clock)
+        bus.subscribe(keys.clock_of(self._stage()), Clock, participant.on_clock)
         bus.subscribe(keys.nav_status, NavStatus, self._on_status)
         bus.subscribe(keys.sim_status, SimStatus, self.recorder.on_sim_status)
         bus.subscribe(
