@@ -30,6 +30,7 @@ from shared.topics import Keys
 from shared.transport import Bus, open_session
 
 EXIT_CONFIG = 2
+EXIT_STEP_FAILED = 3  # a wall-clock step raised: the launcher restarts the service
 
 
 def add_override_argument(parser: argparse.ArgumentParser) -> None:
@@ -111,6 +112,7 @@ class Service:
             raise SystemExit(EXIT_CONFIG) from None
         self.keys = Keys(self.cfg.robot.name)
         self.stop_event = threading.Event()
+        self.step_failed = False
         self.bus: Bus | None = None
         self._ready = False
 
@@ -143,6 +145,8 @@ class Service:
         if self.bus is not None:
             self.bus.close()
         self.log.info("stopped")
+        if self.step_failed and exc[0] is None:
+            raise SystemExit(EXIT_STEP_FAILED)
 
     def declare(self, what: str, key: str) -> str:
         """Log a key this service declares (zenoh's examples print theirs) and return it."""
@@ -167,8 +171,15 @@ class Service:
         lock, counter = self.bus.lock, iter(range(1 << 62))
 
         def wall_step(now: float) -> None:
-            with lock:
-                step(Clock(stamp=now, tick=next(counter), dt=1.0 / rate_hz))
+            try:
+                with lock:
+                    step(Clock(stamp=now, tick=next(counter), dt=1.0 / rate_hz))
+            except Exception:
+                # a dead step thread in a live process would never be restarted: end the
+                # process instead, with a code the launcher restarts
+                self.log.exception("step failed; stopping (exit code %d)", EXIT_STEP_FAILED)
+                self.step_failed = True
+                self.stop_event.set()
 
         threading.Thread(
             target=wall_loop, args=(rate_hz, wall_step, self.stop_event), daemon=True
