@@ -26,10 +26,17 @@ from behaviours.mission import EntryParams, create_plan_tree, create_route_tree,
 from behaviours.motion import FollowPath
 from behaviours.snapshot import signature, snapshot
 from shared.config import FleetConfig, NavigatorConfig
-from shared.messages import Availability, NavGoal, NavStatus, Phase, RouteReply, TreeSnapshot
+from shared.messages import (
+    TERMINAL_STATES,
+    Availability,
+    NavGoal,
+    NavStatus,
+    Phase,
+    RouteReply,
+    TreeSnapshot,
+)
 
 NAME = "navigator"
-ENDED = ("failed", "succeeded", "cancelled")
 
 
 class NavigatorOutput(Protocol):
@@ -222,7 +229,7 @@ class Navigator:
             fields.get("reason", ""),
             self._progress(),
         )
-        if state in ENDED:
+        if state in TERMINAL_STATES:
             self.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
 
     def _running_step(self) -> tuple[int, int, py_trees.behaviour.Behaviour | None]:
