@@ -359,7 +359,8 @@ class DoorEvent:
 class DoorBehaviour:
     """How the building emulator plays one door (scenarios set these per door id)."""
 
-    motion: str = field(default="sliding", metadata=_one_of("hinged", "sliding"))
+    # "" = as the site's door says (its ``motion`` key); set here to override it
+    motion: str = field(default="", metadata=_one_of("", "hinged", "sliding"))
     start_open: bool = False
     schedule: list[DoorEvent] = field(default_factory=list)
     fault: str = field(
@@ -387,6 +388,11 @@ class BuildingConfig:
     manual_doors_open: bool = True  # a manual door with no schedule and no behaviour: open
     doors: dict[str, DoorBehaviour] = field(default_factory=dict)
     lifts: dict[str, LiftBehaviour] = field(default_factory=dict)
+
+    def motion_of(self, door_id: str, site_motion: str) -> str:
+        """How a door's leaf moves: the scenario's override, else the site's ``motion``."""
+        b = self.doors.get(door_id)
+        return b.motion if b is not None and b.motion else site_motion
 
     def starts_open(self, door_id: str, door_type: str) -> bool:
         """Whether a door starts open: its behaviour says so, or it is an unscripted manual one."""

@@ -70,6 +70,14 @@ class Door:
     p1: tuple[float, float]
     p2: tuple[float, float]
     type: str = "manual"
+    motion: str = "sliding"  # how the leaf moves: "hinged" or "sliding"
+    swing: str = "left"  # a hinged leaf turns about p1 towards this side of p1 -> p2
+    controller: bool = True  # the building reports this door's state (and opens it if powered)
+
+    @property
+    def width_m(self) -> float:
+        """The opening's width: the distance from p1 to p2."""
+        return math.hypot(self.p2[0] - self.p1[0], self.p2[1] - self.p1[1])
 
 
 @dataclass
@@ -221,6 +229,9 @@ def load_map(yaml_path: str | Path) -> GridMap:
     origin = meta["origin"]
     if not (isinstance(origin, list) and len(origin) == 3):
         raise SiteError(f"{yaml_path}: origin must be [x, y, yaw], got {origin!r}")
+    yaw = origin[2]
+    if isinstance(yaw, bool) or not isinstance(yaw, int | float) or not math.isfinite(yaw):
+        raise SiteError(f"{yaml_path}: origin yaw must be a finite number (radians), got {yaw!r}")
     mode = meta.get("mode", "trinary")
     if mode not in ("trinary", "scale", "raw"):
         raise SiteError(f"{yaml_path}: mode must be trinary, scale or raw, got {mode!r}")
@@ -236,7 +247,58 @@ def load_map(yaml_path: str | Path) -> GridMap:
     except Exception as exc:
         raise SiteError(f"{image_path}: cannot read image ({exc})") from None
     cells = _interpret(img, mode, negate, occ_th, free_th)
-    return GridMap(np.flipud(cells).copy(), float(res), tuple(float(v) for v in origin))
+    grid = GridMap(np.flipud(cells).copy(), float(res), tuple(float(v) for v in origin))
+    return grid if yaw == 0 else _unrotate(grid)
+
+
+# A yaw this close to a multiple of 90 degrees (no pixel moves by more than this many cells
+# between the two) is taken as that multiple and resampled exactly with np.rot90.
+_QUARTER_TURN_TOL_CELLS = 0.01
+_RESAMPLE_CHUNK_ROWS = 256
+
+
+def _unrotate(grid: GridMap) -> GridMap:
+    """``grid`` (whose origin has a yaw) resampled to an axis-aligned grid in the map frame.
+
+    map_server's ``origin`` is the pose of the image's lower-left corner, the image rotated
+    counter-clockwise by yaw about it. The result covers the rotated image's bounding box at
+    the same resolution; each cell takes the value of the source cell its centre falls in
+    (nearest neighbour), cells outside the image are UNKNOWN, and the origin's yaw is 0.
+    """
+    ox, oy, yaw = grid.origin
+    res = grid.resolution
+    src = grid.cells
+    h, w = src.shape
+    quarter = round(yaw / (math.pi / 2))
+    if abs(yaw - quarter * math.pi / 2) * math.hypot(h, w) <= _QUARTER_TURN_TOL_CELLS:
+        # exact: np.rot90 turns clockwise as printed (row 0 on top); our row 0 is at the
+        # bottom, so k=-q is a counter-clockwise turn in the map frame
+        q = quarter % 4
+        cells = np.ascontiguousarray(np.rot90(src, k=-q))
+        # lower-left corner of the turned image, in cells from (ox, oy)
+        ddx, ddy = ((0, 0), (-h, 0), (-w, -h), (0, -w))[q]
+        return GridMap(cells, res, (ox + ddx * res, oy + ddy * res, 0.0))
+
+    c, s = math.cos(yaw), math.sin(yaw)
+    # image corners in the image frame, rotated about the lower-left corner
+    corners = [(u * w * res, v * h * res) for u in (0, 1) for v in (0, 1)]
+    xs = [c * u - s * v for u, v in corners]
+    ys = [s * u + c * v for u, v in corners]
+    dx0, dy0 = min(xs), min(ys)  # bounding-box corner relative to (ox, oy)
+    # tolerate rounding when an extent is (almost) a whole number of cells
+    cols = max(1, math.ceil((max(xs) - dx0) / res - 1e-6))
+    rows = max(1, math.ceil((max(ys) - dy0) / res - 1e-6))
+    out = np.full((rows, cols), UNKNOWN, dtype=src.dtype)
+    dx = dx0 + (np.arange(cols) + 0.5) * res  # cell centres relative to (ox, oy)
+    for r0 in range(0, rows, _RESAMPLE_CHUNK_ROWS):
+        r1 = min(rows, r0 + _RESAMPLE_CHUNK_ROWS)
+        dy = (dy0 + (np.arange(r0, r1) + 0.5) * res)[:, None]
+        # rotate back by -yaw into the image frame, then find the source cell
+        j = np.floor((c * dx + s * dy) / res).astype(np.int64)
+        i = np.floor((-s * dx + c * dy) / res).astype(np.int64)
+        inside = (i >= 0) & (i < h) & (j >= 0) & (j < w)
+        out[r0:r1][inside] = src[i[inside], j[inside]]
+    return GridMap(out, res, (ox + dx0, oy + dy0, 0.0))
 
 
 def _interpret(
@@ -313,7 +375,13 @@ def _parse_site(path: Path, data: dict) -> Site:
         door_id = str(_need(d, "id", where))
         if any(door.id == door_id for door in doors):
             raise SiteError(f"{where}.id: duplicate door id {door_id!r}")
-        doors.append(Door(door_id, floor, p1, p2, kind))
+        _no_unknown(d, _DOOR_KEYS, where)
+        motion = _choice(d, "motion", DOOR_MOTIONS, where)
+        swing = _choice(d, "swing", DOOR_SWINGS, where)
+        controller = d.get("controller", True)
+        if not isinstance(controller, bool):
+            raise SiteError(f"{where}.controller: must be true or false, got {controller!r}")
+        doors.append(Door(door_id, floor, p1, p2, kind, motion, swing, controller))
     places = {}
     for name, p in (data.get("places") or {}).items():
         where = f"{path}: places.{name}"
@@ -330,6 +398,19 @@ def _parse_site(path: Path, data: dict) -> Site:
     elevators = _parse_elevators(path, data.get("elevators"), floors)
     name = str(data.get("name", path.parent.name))
     return Site(name, path.parent, floors, doors, places, elevators)
+
+
+_DOOR_KEYS = ("id", "floor", "p1", "p2", "type", "motion", "swing", "controller")
+DOOR_MOTIONS = ("sliding", "hinged")  # the first is the default
+DOOR_SWINGS = ("left", "right")
+
+
+def _choice(d: dict, key: str, allowed: tuple[str, ...], where: str) -> str:
+    """``d[key]`` if it is one of ``allowed``, ``allowed[0]`` when absent; SiteError otherwise."""
+    value = d.get(key, allowed[0])
+    if value not in allowed:
+        raise SiteError(f"{where}.{key}: must be one of {', '.join(allowed)}, got {value!r}")
+    return str(value)
 
 
 _ELEVATOR_KEYS = ("id", "floors", "car", "doors")

@@ -1,7 +1,7 @@
 """Door leaves as pybullet bodies, placed from the building emulator's opening fractions.
 
-A hinged leaf turns about its ``p1`` end by up to 90 degrees towards the door's left
-normal; a sliding leaf slides along the wall past ``p2``. Closed leaves fill the door
+A hinged leaf turns about its ``p1`` end by up to 90 degrees towards the side of
+``p1 -> p2`` its door's ``swing`` names (left by default); a sliding leaf slides along the wall past ``p2``. Closed leaves fill the door
 gap of the map, so the LiDAR sees them and the chair collides with them.
 """
 
@@ -50,7 +50,8 @@ class DoorLeaf:
             shift = opening * self.width + self.width / 2
             cx, cy, yaw = x1 + math.cos(self.yaw) * shift, y1 + math.sin(self.yaw) * shift, self.yaw
         else:
-            yaw = self.yaw + opening * math.pi / 2
+            side = -1.0 if self.door.swing == "right" else 1.0
+            yaw = self.yaw + side * opening * math.pi / 2
             cx = x1 + math.cos(yaw) * self.width / 2
             cy = y1 + math.sin(yaw) * self.width / 2
         pb.resetBasePositionAndOrientation(

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as pb
 
-from shared.config import DoorBehaviour, FleetConfig
+from shared.config import FleetConfig
 from shared.site import Site
 from sim.doors import DoorLeaf, LiftBody
 from sim.lidar3d import MultiRingLidar
@@ -99,12 +99,11 @@ class Simulation:
                 ignore_ids=[self.body],
                 unknown_is_occupied=cfg.planner.unknown_is_occupied,
             )
-        behaviours = cfg.building.doors
         self.doors = {
             d.id: DoorLeaf(
                 self.world.client,
                 d,
-                behaviours[d.id].motion if d.id in behaviours else DoorBehaviour().motion,
+                cfg.building.motion_of(d.id, d.motion),
                 self.elevations[d.floor],
             )
             for d in site.doors

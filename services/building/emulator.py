@@ -50,7 +50,7 @@ class Building:
             start_open = cfg.starts_open(door.id, door.type)
             self.doors[door.id] = DoorSim(
                 door,
-                b.motion,
+                cfg.motion_of(door.id, door.motion),
                 timing,
                 b.fault or None,
                 [(e.at_s, e.action) for e in b.schedule],

@@ -6,6 +6,7 @@ implies (the report of a run is :mod:`wheelnav.mission.report`).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +25,8 @@ SCENARIO_KEYS = {
     "config",
     "description",
     "expect",
+    "expect_reason",
+    "kind",
 }
 
 
@@ -38,6 +41,8 @@ class Scenario:
     time_limit_s: float
     path: Path
     expect: str = "success"  # or "failure": the scenario shows a safe stop
+    expect_reason: str = ""  # a regex the failure's reason must match (case-insensitive)
+    kind: str = ""  # what the mission tests (a campaign's mission kind), free text
 
 
 def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
@@ -101,6 +106,13 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     expect = data.get("expect", "success")
     if expect not in ("success", "failure"):
         raise ConfigError(f"{path}: expect: must be success or failure, got {expect!r}")
+    expect_reason = str(data.get("expect_reason", ""))
+    try:
+        re.compile(expect_reason)
+    except re.error as exc:
+        raise ConfigError(f"{path}: expect_reason: not a regular expression ({exc})") from None
     load_site(site)  # a missing or malformed site fails here, in one line, not in 5 services
     name = str(data.get("name", path.stem))
-    return Scenario(name, cfg, goal, place, float(limit), path, expect)
+    return Scenario(
+        name, cfg, goal, place, float(limit), path, expect, expect_reason, str(data.get("kind", ""))
+    )
