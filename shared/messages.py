@@ -470,6 +470,16 @@ class Event(Msg):
     severity: str = "info"
 
 
+@message("door_clearance")
+@dataclass
+class DoorClearance(Msg):
+    """The smallest clearance the simulator measured while the chair was in one opening."""
+
+    door_id: str
+    width_m: float
+    min_clearance_m: float
+
+
 @message("sim_status")
 @dataclass
 class SimStatus(Msg):
@@ -480,3 +490,5 @@ class SimStatus(Msg):
     in_collision: bool
     clearance_m: float
     min_clearance_m: float
+    min_clearance_away_m: float = 1e6  # away from every door opening (1e6: none seen yet)
+    doors: list[DoorClearance] = field(default_factory=list)  # door openings passed so far

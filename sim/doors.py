@@ -1,8 +1,9 @@
 """Door leaves as pybullet bodies, placed from the building emulator's opening fractions.
 
 A hinged leaf turns about its ``p1`` end by up to 90 degrees towards the side of
-``p1 -> p2`` its door's ``swing`` names (left by default); a sliding leaf slides along the wall past ``p2``. Closed leaves fill the door
-gap of the map, so the LiDAR sees them and the chair collides with them.
+``p1 -> p2`` its door's ``swing`` names (left by default); a sliding leaf slides along
+the wall past ``p2``. Closed leaves fill the door gap of the map, so the LiDAR sees them
+and the chair collides with them.
 """
 
 from __future__ import annotations

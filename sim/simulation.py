@@ -25,6 +25,50 @@ CLEARANCE_RANGE_M = 2.0
 CHAIR_HEIGHT_M = 1.2
 
 
+@dataclass(frozen=True)
+class Opening:
+    """A door opening's zone, where clearance is measured apart from the rest: the footprint
+    centre within ``reach`` of the door plane and ``side`` of the door's middle."""
+
+    id: str
+    width: float
+    cx: float
+    cy: float
+    nx: float
+    ny: float
+    reach: float
+    side: float
+
+
+OPENING_MARGIN_M = 0.3  # the zone reaches this far past the chair's half length and the jambs
+
+
+def _openings(site: Site, half_length_m: float) -> dict[str, list[Opening]]:
+    """Every door opening per floor: the site's doors and each lift's car doors."""
+    segments = [(d.id, d.floor, d.p1, d.p2) for d in site.doors]
+    for lift in getattr(site, "elevators", []):
+        segments += [(f"{lift.id}@{f}", f, *lift.doors[f]) for f in lift.floors]
+    out: dict[str, list[Opening]] = {}
+    for door_id, floor, (x1, y1), (x2, y2) in segments:
+        width = math.hypot(x2 - x1, y2 - y1)
+        if width <= 0:
+            continue
+        nx, ny = -(y2 - y1) / width, (x2 - x1) / width
+        out.setdefault(floor, []).append(
+            Opening(
+                door_id,
+                width,
+                (x1 + x2) / 2,
+                (y1 + y2) / 2,
+                nx,
+                ny,
+                half_length_m + OPENING_MARGIN_M,
+                width / 2 + OPENING_MARGIN_M,
+            )
+        )
+    return out
+
+
 @dataclass
 class StepResult:
     """What one step produced: the time, whether a scan is due, and new collisions."""
@@ -135,6 +179,9 @@ class Simulation:
         self.in_collision = False
         self.clearance = math.inf
         self.min_clearance = math.inf
+        self.min_clearance_away = math.inf  # away from every door opening
+        self.door_clearance: dict[str, tuple[float, float]] = {}  # id -> (width, min clearance)
+        self._openings = _openings(site, (fp.front + fp.rear) / 2)
         self._place_body()
         self._measure()
         if self.in_collision:
@@ -233,6 +280,24 @@ class Simulation:
         self.clearance = best
         self.min_clearance = min(self.min_clearance, best)
         self.in_collision = best <= 0.0
+        s = self.state
+        opening = self._opening_at(
+            s.x + self._body_offset * math.cos(s.theta), s.y + self._body_offset * math.sin(s.theta)
+        )
+        if opening is None:
+            self.min_clearance_away = min(self.min_clearance_away, best)
+        else:
+            width, seen = self.door_clearance.get(opening.id, (opening.width, math.inf))
+            self.door_clearance[opening.id] = (width, min(seen, best))
+
+    def _opening_at(self, x: float, y: float) -> Opening | None:
+        """The door opening (site door or car door on the chair's floor) whose zone holds
+        the footprint centre (x, y), if any."""
+        for o in self._openings.get(self.floor, ()):
+            dx, dy = x - o.cx, y - o.cy
+            if abs(dx * o.nx + dy * o.ny) <= o.reach and abs(dx * o.ny - dy * o.nx) <= o.side:
+                return o
+        return None
 
     def close(self) -> None:
         self.world.close()

@@ -16,6 +16,7 @@ from shared.messages import (
     Ack,
     BuildingBodies,
     Clock,
+    DoorClearance,
     Event,
     Odometry,
     PointCloud,
@@ -158,6 +159,11 @@ def _run(
                     sim.in_collision,
                     _finite(sim.clearance),
                     _finite(sim.min_clearance),
+                    _finite(sim.min_clearance_away),
+                    [
+                        DoorClearance(door_id, width, _finite(seen))
+                        for door_id, (width, seen) in sim.door_clearance.items()
+                    ],
                 ),
             )
         if result.tick % PROFILE_EVERY == 0:

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from shared.geometry import wrap_angle
-from shared.messages import TERMINAL_STATES, NavStatus, SimStatus
+from shared.messages import TERMINAL_STATES, NavStatus, RouteReply, SimStatus
 from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
 
 
@@ -36,6 +36,9 @@ class Recorder:
     sim_time_s: float = 0.0
     collisions: int = 0
     min_clearance_m: float = math.inf
+    min_clearance_away_m: float = math.inf
+    door_clearance: dict[str, tuple[float, float]] = field(default_factory=dict)
+    planned_length_m: float | None = None  # of the route driven last
     path_length_m: float = 0.0
     phases: list[Phase] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
@@ -70,6 +73,19 @@ class Recorder:
             return  # the report covers the mission, not the shutdown after it
         self.collisions = max(self.collisions, msg.collisions)
         self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
+        if msg.min_clearance_away_m < 1e6:
+            self.min_clearance_away_m = min(self.min_clearance_away_m, msg.min_clearance_away_m)
+        for d in msg.doors:
+            seen = self.door_clearance.get(d.door_id, (d.width_m, math.inf))[1]
+            self.door_clearance[d.door_id] = (d.width_m, min(seen, d.min_clearance_m))
+
+    def on_route(self, route: RouteReply) -> None:
+        """A route about to be driven: its planned length (legs plus door passes)."""
+        if self.finished:
+            return
+        legs = sum(_polyline_length(leg.waypoints) for leg in route.legs)
+        passes = sum(c.pass_distance_m for c in route.checkpoints if c.kind == "door")
+        self.planned_length_m = legs + passes
 
     def on_truth(self, x: float, y: float, theta: float = 0.0, stamp: float | None = None) -> None:
         if self.finished:
@@ -129,6 +145,14 @@ class Recorder:
             "min_clearance_m": round(self.min_clearance_m, 4)
             if math.isfinite(self.min_clearance_m)
             else None,
+            "min_clearance_away_m": _rounded(self.min_clearance_away_m),
+            "door_clearance": [
+                {"door": door, "width_m": round(w, 3), "min_clearance_m": _rounded(c)}
+                for door, (w, c) in self.door_clearance.items()
+            ],
+            "planned_length_m": None
+            if self.planned_length_m is None
+            else round(self.planned_length_m, 3),
             "sim_time_s": round(self.sim_time_s, 3),
             "wall_time_s": round(wall_time_s, 3),
             "path_length_m": round(self.path_length_m, 3),
@@ -148,6 +172,15 @@ class Recorder:
             ],
             "events": self.events,
         }
+
+
+def _rounded(value: float) -> float | None:
+    return round(value, 4) if math.isfinite(value) else None
+
+
+def _polyline_length(points) -> float:
+    pts = np.asarray(points, float)
+    return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()) if len(pts) > 1 else 0.0
 
 
 def format_report(report: dict[str, Any]) -> str:

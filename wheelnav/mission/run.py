@@ -149,7 +149,7 @@ class MissionRun:
         bus.subscribe(
             keys.nav_route,
             RouteReply,
-            lambda m: self.recorder.checkpoints.on_route(m.checkpoints, self.recorder.sim_time_s),
+            self._on_route,
         )
         bus.subscribe(
             keys.follow_status,
@@ -204,6 +204,10 @@ class MissionRun:
         self.recorder.on_status(msg)
         if self.recorder.finished:
             self.done.set()
+
+    def _on_route(self, m: RouteReply) -> None:
+        self.recorder.on_route(m)
+        self.recorder.checkpoints.on_route(m.checkpoints, self.recorder.sim_time_s)
 
     def _on_truth(self, m: Odometry) -> None:
         self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp)
