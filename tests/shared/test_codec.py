@@ -54,7 +54,8 @@ def samples() -> list[m.Msg]:
         m.NavGoal(9.0, "g1", pose),
         m.NavStatus(9.5, "g1", "running", "navigate", "follow", "", 0.2),
         m.Event(10.0, "sim", "collision", "at (1, 2)", "error"),
-        m.SimStatus(10.0, 1, False, 0.3, 0.1),
+        m.SimStatus(10.0, 1, False, 0.3, 0.1, 0.2, [m.DoorClearance("door_ab", 0.9, 0.12)]),
+        m.DoorClearance("door_ab", 0.9, 0.12),
     ]
 
 
