@@ -165,3 +165,37 @@ def test_door_check_config_errors_name_the_dotted_key() -> None:
         load(None, ["navigator.door_check.cone_deg=-1"])
     with pytest.raises(ConfigError, match=r"^navigator\.door_check\.band_m: must be \[low, high\]"):
         load(None, ["navigator.door_check.band_m=[1.7, 0.5]"])
+
+
+def hinged_leaf(plane_x: float, width_m: float, angle_deg: float, side: int) -> Segment:
+    """A leaf hinged at the door's left jamb (y = +width/2), open ``angle_deg`` from the
+    door plane towards the chair (``side`` -1) or away from it (+1)."""
+    h = width_m / 2
+    a = np.radians(angle_deg)
+    return ((plane_x, h), (plane_x + side * width_m * np.sin(a), h - width_m * np.cos(a)))
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+@pytest.mark.parametrize("offset", [0.03, 0.10, -0.10])
+def test_an_open_hinged_leaf_beside_the_way_is_not_in_the_doorway(
+    side: int, offset: float
+) -> None:
+    # failure mode 1 of issue 13: an open 0.89 m hinged door, pass held "something in the
+    # doorway ahead" for ever. The leaf stands open (90 deg) on the near or the far side of
+    # the wall; the chair, ``offset`` off the door's centre line (Phase 0 accepts 0.15 m)
+    # and 2 deg off its heading, has its leading edge 1.0 m before the door plane.
+    width, plane = 0.89, 1.76
+    walls = doorway(plane, width) + [hinged_leaf(plane, width, 90.0, side)]
+    origin, heading = (0.0, offset), np.radians(2.0)
+    pts = cast(walls, origin)
+    c, s = np.cos(-heading), np.sin(-heading)  # into the chair's (rotated) sensor frame
+    pts = np.column_stack([pts[:, 0] * c - pts[:, 1] * s, pts[:, 0] * s + pts[:, 1] * c, pts[:, 2]])
+    pose, door = (0.0, offset, heading), (plane, 0.0)
+    for lead in (0.76, 1.2, 1.5):  # as the chair drives in
+        assert not lane_blocked(pts, pose, door, 0.0, 1.0, 0.375, lead, CHECK, width)
+    # the same leaf swinging shut (45 deg from the plane) is in the doorway
+    closing = cast(doorway(plane, width) + [hinged_leaf(plane, width, 45.0, side)], origin)
+    closing = np.column_stack(
+        [closing[:, 0] * c - closing[:, 1] * s, closing[:, 0] * s + closing[:, 1] * c, closing[:, 2]]
+    )
+    assert lane_blocked(closing, pose, door, 0.0, 1.0, 0.375, 0.76, CHECK, width)
