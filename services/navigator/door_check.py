@@ -11,8 +11,9 @@ whenever fewer than ``min_points`` survive a stage. Unknown is never treated as 
 Every tuning value comes from one :class:`~shared.config.DoorCheckConfig`
 (``navigator.door_check``). When the door's width is known (``width_m > 0``, the
 planner's checkpoint width) neither check looks past the opening less
-``jamb_allowance_m`` a side, so a jamb is never taken for a closed door or for
-something in the doorway; a width of 0 (unknown, e.g. a lift's car door) leaves both
+``jamb_allowance_m`` a side, taken in the door's own frame near the door, so a jamb or a
+leaf open against its stop is never taken for a closed door or for something in the
+doorway; a width of 0 (unknown, e.g. a lift's car door) leaves both
 checks as they were without it.
 """
 
@@ -97,10 +98,13 @@ def lane_blocked(
     each side of the chair's centre line, from ``lead_m`` ahead of the pose point (the
     front, or the back when reversing) to the door plane through ``door_xy`` plus
     ``lane_margin_m``. A leaf swinging or sliding shut enters it; the jambs beside the
-    chair do not: inside the doorway (within ``lane_margin_m`` of the door plane) the lane
-    is at most half the door's ``width_m`` less ``jamb_allowance_m`` wide each side, when
-    the width is known. ``lane_min_points`` points make it blocked. Once the leading edge
-    is past the door plane plus the margin there is nothing left to check (False).
+    chair do not. When the door's ``width_m`` is known, the last stretch before the plane
+    (one door width, where a hinged leaf may stand open) is taken in the door's own frame:
+    there only points between the jambs (half the width less ``jamb_allowance_m`` from the
+    door's centre line) count, wherever the chair stands, so a jamb, a leaf open against
+    its stop or a wall beside the doorway is never "in the doorway", even with the chair
+    off the centre line. ``lane_min_points`` points make it blocked. Once the leading
+    edge is past the door plane plus the margin there is nothing left to check (False).
     """
     if points is None or len(points) == 0:
         return False
@@ -114,12 +118,14 @@ def lane_blocked(
     a = direction - th  # the lane's direction in the sensor frame
     ca, sa = math.cos(a), math.sin(a)
     along = pts[:, 0] * ca + pts[:, 1] * sa
-    across = np.abs(-pts[:, 0] * sa + pts[:, 1] * ca)
+    across = -pts[:, 0] * sa + pts[:, 1] * ca
+    inside = (np.abs(across) <= half_width_m) & (along > lead_m) & (along <= to_plane)
     free = _free_half_width(width_m, cfg)
-    if free is not None and free < half_width_m:
-        doorway = along >= to_plane - 2 * margin
-        half = np.where(doorway, free, half_width_m)
-    else:
-        half = half_width_m
-    inside = (across <= half) & (along > lead_m) & (along <= to_plane)
+    if free is not None:
+        # the door's frame: ``before`` the plane (negative before it), ``off`` its centre line
+        lateral = (door_xy[0] - x) * -uy + (door_xy[1] - y) * ux
+        before = along - (to_plane - margin)
+        off = np.abs(across - lateral)
+        near = before >= -(width_m + cfg.jamb_allowance_m)
+        inside = np.where(near, (off < free) & (along > lead_m) & (along <= to_plane), inside)
     return int(np.count_nonzero(inside)) >= cfg.lane_min_points
