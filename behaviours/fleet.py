@@ -141,4 +141,4 @@ class OpenInScans:
         return self.agree >= self.needed
 
     def __str__(self) -> str:
-        return f"LiDAR open in {self.agree}/{self.needed} scans"
+        return f"LiDAR open in {min(self.agree, self.needed)} of {self.needed} scans"

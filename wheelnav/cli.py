@@ -2,6 +2,7 @@
 
 wheelnav up [--profile sim|hardware]     the whole fleet around a local router
 wheelnav mission SCENARIO.yaml           one mission, with a report
+wheelnav campaign [--buildings N]        generated buildings x missions: table, figures
 wheelnav go PLACE [--wait] | cancel | status   the mission API on a live fleet
 wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
 wheelnav compose [--check]               docker-compose.yml from the fleet definition
@@ -26,6 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     from wheelnav import mission_api
     from wheelnav.bench import cli as bench_cli
+    from wheelnav.campaign import runner as campaign_runner
     from wheelnav.launcher import cli as launcher_cli
     from wheelnav.mission import cli as mission_cli
     from wheelnav.topic_tools import cli as topic_cli
@@ -36,6 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     topic_cli.add_commands(sub)
     topic_cli.add_tree_command(sub)
     bench_cli.add_commands(sub)
+    campaign_runner.add_commands(sub)
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)
