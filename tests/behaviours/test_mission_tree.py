@@ -453,3 +453,24 @@ def test_every_phase_is_a_phase() -> None:
     phases = {b.phase for b in tree.root.iterate() if hasattr(b, "phase")}
     assert all(isinstance(p, Phase) for p in phases)
     assert {Phase.FOLLOW, Phase.CORRECT, Phase.TURN, Phase.VERIFY, Phase.PASS} <= phases
+
+
+def test_a_phase_limit_counts_the_time_under_a_safety_hold() -> None:
+    # issue 13 failure mode 3: Phase 0 of the second of two doors in series could not reach
+    # its pose; the chair stood in a safety stop (obstacle) and the Phase 0 limit of 20 s
+    # never ended it, because time under the hold did not count: the 60 s safety limit did.
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet, correction_timeout_s=20.0, safety_timeout_s=60.0)
+    tree.tick()
+    fleet.arrive()  # leg 0 done: Phase 0 starts now
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Correct d1 #1"
+    start = fleet.t
+    fleet.follow = FollowStatus(fleet.t, "Correct d1 #1", "obstacle", 0.2, 1.8, 0.0)
+    while tree.root.status == Status.RUNNING and fleet.t < start + 61.0:
+        fleet.t += 0.5
+        tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert fleet.t <= start + 21.0, f"ended {fleet.t - start:.1f} s after Phase 0 began"
+    assert bb.failure == "Phase 0 d1: timed out after 20 s"
