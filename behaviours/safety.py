@@ -6,7 +6,9 @@ its FollowStatus. A controller that has gone silent is unsafe too (the base's wa
 stops the chair, but nothing should be asked of it). The gate turns that into mission
 logic: it stops ticking the mission (pre-empting every phase, without resetting its
 progress, so the chair carries on where it was when the cause clears), reports when a
-stop starts and ends, and fails the mission if one lasts longer than its timeout.
+stop starts and ends, and fails the mission if one lasts longer than its timeout. Phase
+limits count the time under a hold: one that runs out while the gate holds ends its
+phase there and then, as it would have with the chair moving.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from collections.abc import Callable, Iterator
 
 import py_trees
 from py_trees.common import Status
+
+from behaviours.timeouts import Timeout
 
 UNSAFE = ("stale_pose", "stale_scan", "obstacle", "blocked", "stale")
 
@@ -80,6 +84,11 @@ class SafetyGate(py_trees.decorators.Decorator):
         if self.since is None:
             self.since, self.cause = now, cause
             self.fleet.event("safety_stop", cause)
+        expired = self.expired_limit(now)
+        if expired is not None:  # a phase limit ran out under the hold: it ends its phase
+            self.fleet.event("safety_stop", f"{cause}: {expired.name} limit reached while held")
+            yield from super().tick()
+            return
         if self.status != Status.RUNNING:
             self.initialise()
         held = now - self.since
@@ -94,6 +103,13 @@ class SafetyGate(py_trees.decorators.Decorator):
             self.feedback_message = f"holding: {cause} for {held:.1f} s"
             self.status = Status.RUNNING
         yield self
+
+    def expired_limit(self, now: float) -> Timeout | None:
+        """A running phase limit below the gate whose time is up (hold time counts)."""
+        for b in self.decorated.iterate():
+            if isinstance(b, Timeout) and b.status == Status.RUNNING and b.expired(now):
+                return b
+        return None
 
     def update(self) -> Status:
         self.feedback_message = ""

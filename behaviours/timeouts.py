@@ -39,8 +39,12 @@ class Timeout(py_trees.decorators.Decorator):
         self.started = self.clock()
         self.feedback_message = ""
 
+    def expired(self, now: float) -> bool:
+        """True once ``duration`` has passed since it started (whether ticked or not)."""
+        return now - self.started > self.duration
+
     def update(self) -> Status:
-        if self.decorated.status == Status.RUNNING and self.clock() - self.started > self.duration:
+        if self.decorated.status == Status.RUNNING and self.expired(self.clock()):
             self.feedback_message = f"timed out after {self.duration:g} s"
             self.decorated.stop(Status.INVALID)
             if self.on_timeout is not None:

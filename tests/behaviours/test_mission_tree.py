@@ -473,4 +473,4 @@ def test_a_phase_limit_counts_the_time_under_a_safety_hold() -> None:
         tree.tick()
     assert tree.root.status == Status.FAILURE
     assert fleet.t <= start + 21.0, f"ended {fleet.t - start:.1f} s after Phase 0 began"
-    assert bb.failure == "Phase 0 d1: timed out after 20 s"
+    assert bb.failure == "Correct d1: timed out after 20 s"
