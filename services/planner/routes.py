@@ -69,8 +69,11 @@ class Route:
 class RoutePlanner:
     """Routes on a site, with doors and elevators that can be marked unavailable."""
 
-    def __init__(self, planner: Planner, site: Site, cfg: PlannerConfig) -> None:
+    def __init__(
+        self, planner: Planner, site: Site, cfg: PlannerConfig, stop_distance_m: float = 0.25
+    ) -> None:
         self.planner = planner
+        self.stop_distance_m = stop_distance_m
         self.site = site
         self.cfg = cfg
         self.blocked_doors: set[str] = set()

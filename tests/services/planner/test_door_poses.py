@@ -1,0 +1,116 @@
+"""Door checkpoints fit the space around each door (issue 13 failure modes 3 and 4).
+
+Built on drawn maps (sim.sitegen), planned by the real route planner: the approach pose
+leaves the chair's rear clear of what stands behind it, and the exit pose leaves the
+controller's stop zone clear ahead of the chair, whatever the room's depth, the furniture
+or a second door in series.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from services.planner.grid_planner import Planner
+from services.planner.routes import RoutePlanner
+from shared.config import ControllerConfig, PlannerConfig, RobotConfig
+from shared.site import load_site
+from sim.sitegen import draw, write_map
+
+ROBOT = RobotConfig()
+STOP = ControllerConfig().stop_distance_m
+
+
+def make_site(folder: Path, walls, gaps, doors, size) -> object:
+    write_map(draw(size, walls, gaps), folder, "floor1")
+    site = {
+        "name": "t",
+        "floors": [{"name": "1", "elevation": 0.0, "map": "floor1.yaml"}],
+        "doors": [
+            {"id": i, "floor": "1", "p1": list(p1), "p2": list(p2), "type": "manual"}
+            for i, p1, p2 in doors
+        ],
+    }
+    (folder / "site.yaml").write_text(yaml.safe_dump(site))
+    return load_site(folder)
+
+
+def routes_for(site) -> RoutePlanner:
+    return RoutePlanner(
+        Planner(site, ROBOT, PlannerConfig()), site, PlannerConfig(), stop_distance_m=STOP
+    )
+
+
+def strip_free(site, pose, ahead_m: float, behind_m: float) -> bool:
+    """The chair's strip (clearance half width) from ``behind_m`` behind the pose point to
+    ``ahead_m`` ahead of it is free on the map (doors count as closed)."""
+    grid = site.floor("1").map
+    occ = grid.occupied(True)
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    half = ROBOT.clearance_half_width_m
+    for a in np.arange(-behind_m, ahead_m + 1e-9, 0.025):
+        for b in np.arange(-half, half + 1e-9, 0.025):
+            r, col = grid.to_cell(x + a * c - b * s, y + a * s + b * c)
+            if occ[r, col]:
+                return False
+    return True
+
+
+def test_exit_pose_of_a_door_into_a_shallow_furnished_room(tmp_path: Path) -> None:
+    # failure mode 4: the pass's fixed end lies inside the stop zone of the wall or the
+    # furniture of a small room ("2.15 of 2.24 m" for 60 s). A 0.9 m door at x = 4; a
+    # cupboard 1.6 m past the door plane, across the way.
+    t = 0.2
+    walls = [(0, 0, 8, t), (0, 5 - t, 8, 5), (0, 0, t, 5), (8 - t, 0, 8, 5), (3.9, 0, 4.1, 5)]
+    walls.append((5.6, 1.5, 6.4, 3.5))  # the cupboard
+    gaps = [(3.9, 2.05, 4.1, 2.95)]
+    site = make_site(tmp_path, walls, gaps, [("d", (4.0, 2.05), (4.0, 2.95))], (8, 5))
+    route = routes_for(site).route((1.5, 2.5), "1", (7.2, 4.2), "1")
+    (cp,) = route.checkpoints
+    fp = ROBOT.footprint
+    assert strip_free(site, cp.exit, fp.front + STOP, 0.0)
+    assert cp.exit[0] - 4.0 >= fp.rear  # the chair's rear is past the door plane
+    assert strip_free(site, cp.approach, 0.0, fp.rear)
+
+
+def test_doors_in_series_leave_room_between_them(tmp_path: Path) -> None:
+    # failure mode 3: a room between an inner and an outer door 1.5 m apart; the second
+    # door's approach pose must lie in that room, the first door's exit before it, and the
+    # chair's strip clear of the second (closed) door at both.
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5)]
+    walls += [(3.9, 0, 4.1, 5), (5.4, 0, 5.6, 5)]
+    gaps = [(3.9, 2.05, 4.1, 2.95), (5.4, 2.05, 5.6, 2.95)]
+    doors = [("outer", (4.0, 2.05), (4.0, 2.95)), ("inner", (5.5, 2.05), (5.5, 2.95))]
+    site = make_site(tmp_path, walls, gaps, doors, (10, 5))
+    route = routes_for(site).route((1.5, 2.5), "1", (8.5, 2.5), "1")
+    outer, inner = route.checkpoints
+    fp = ROBOT.footprint
+    assert 4.0 + fp.rear <= outer.exit[0] <= inner.approach[0] + 1e-6
+    assert inner.approach[0] + fp.front <= 5.5
+    assert strip_free(site, outer.exit, fp.front, 0.0)  # closed inner door not reached
+    assert strip_free(site, inner.approach, 0.0, fp.rear)
+
+
+@pytest.mark.parametrize("corridor_m", [1.5, 1.8])
+def test_approach_from_a_corridor_keeps_the_rear_off_the_far_wall(
+    tmp_path: Path, corridor_m: float
+) -> None:
+    # the door on the side wall of a corridor: the approach pose keeps the chair's rear
+    # off the corridor's far wall and its front short of the door plane
+    t = 0.2
+    top = 3.0 + corridor_m + t
+    walls = [(0, 0, 10, t), (0, top, 10, top + t), (0, 0, t, top + t), (10 - t, 0, 10, top + t)]
+    walls.append((0, 2.9, 10, 3.1))  # the wall between the room (below) and the corridor
+    gaps = [(4.55, 2.9, 5.45, 3.1)]
+    site = make_site(tmp_path, walls, gaps, [("d", (4.55, 3.0), (5.45, 3.0))], (10, top + t))
+    route = routes_for(site).route((1.0, 3.1 + corridor_m / 2), "1", (5.0, 1.2), "1")
+    (cp,) = route.checkpoints
+    fp = ROBOT.footprint
+    assert strip_free(site, cp.approach, 0.0, fp.rear)
+    assert cp.approach[1] - 3.0 >= fp.front  # the front stops short of the door plane
