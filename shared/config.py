@@ -163,6 +163,8 @@ class PlannerConfig:
     landmarks: int = field(default=4, metadata=check(_non_negative))
     door_standoff_m: float = field(default=1.0, metadata=check(_positive))
     door_exit_m: float = field(default=1.2, metadata=check(_positive))
+    # door poses: kept between the chair (and its stop zone at the exit) and what is around
+    door_pose_margin_m: float = field(default=0.05, metadata=check(_non_negative))
     door_speed: float = field(default=0.2, metadata=check(_positive))
     door_slow_radius_m: float = field(default=1.5, metadata=check(_non_negative))
     elevator_standoff_m: float = field(default=1.5, metadata=check(_positive))

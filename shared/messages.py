@@ -335,6 +335,7 @@ class Checkpoint(Msg):
     width_m: float = 0.0
     to_floor: str = ""
     centre: Pose2D | None = None  # the door's (or car door's) middle, heading = approach's
+    controller: bool = True  # the building reports this door (False: verified by LiDAR alone)
 
 
 @message("route_reply", version=3)

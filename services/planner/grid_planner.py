@@ -51,6 +51,7 @@ class Planner:
     def __init__(self, site: Site, robot: RobotConfig, cfg: PlannerConfig) -> None:
         self.site = site
         self.cfg = cfg
+        self.robot = robot
         self.radius = inflation_radius(robot, cfg)
         self._floors: dict[str, _FloorGrid] = {}
         astar(np.zeros((3, 3), dtype=bool), (0, 0), (2, 2))  # compile (or load) the JIT now

@@ -57,6 +57,7 @@ def _checkpoint(c: Checkpoint) -> m.Checkpoint:
         c.width_m,
         c.to_floor,
         m.Pose2D(c.centre[0], c.centre[1], c.approach[2], c.floor),
+        c.controller,
     )
 
 
@@ -65,7 +66,12 @@ def main(argv: list[str] | None = None) -> None:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
         try:
             site = load_site(cfg.site)
-            routes = RoutePlanner(Planner(site, cfg.robot, cfg.planner), site, cfg.planner)
+            routes = RoutePlanner(
+                Planner(site, cfg.robot, cfg.planner),
+                site,
+                cfg.planner,
+                cfg.controller.stop_distance_m,
+            )
         except SiteError as exc:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None

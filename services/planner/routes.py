@@ -26,7 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from services.planner import errors
-from services.planner.grid_planner import Plan, Planner
+from services.planner.door_poses import PoseRoom, approach_distance, exit_distance, free_depth
+from services.planner.grid_planner import Plan, Planner, block_segment
 from services.planner.path_doors import detect_doors_along_path
 from services.planner.room_segmentation import RoomMap, segment_rooms
 from shared.config import PlannerConfig
@@ -50,6 +51,7 @@ class Checkpoint:
     width_m: float = 0.0
     to_floor: str = ""
     centre: tuple[float, float] = (0.0, 0.0)  # the door's (or car door's) middle
+    controller: bool = True  # the building reports the door's state (else: LiDAR alone)
 
 
 @dataclass
@@ -253,11 +255,36 @@ class RoutePlanner:
         ]
 
     def _door_checkpoint(self, door: Door, side: int, floor: str) -> Checkpoint:
+        """The door's checkpoint, its poses fitted to the space on both sides of it
+        (services/planner/door_poses.py), the other doors of the floor counted closed."""
         centre, normal, width = door_geometry(door)
         n = normal * side  # the direction of travel through the door
         heading = math.atan2(n[1], n[0])
-        approach = self._free_point(centre, -n, self.cfg.door_standoff_m, floor, door.id)
-        exit_ = self._free_point(centre, n, self.cfg.door_exit_m, floor, door.id)
+        grid = self.site.floor(floor).map
+        occ = grid.occupied(self.planner.cfg.unknown_is_occupied).copy()
+        for other in self.site.doors:
+            if other.floor == floor and other.id != door.id:
+                block_segment(occ, grid, other.p1, other.p2, grid.resolution)
+        fp = self.planner.robot.footprint
+        room = PoseRoom(
+            fp.front,
+            fp.rear,
+            self.planner.robot.clearance_half_width_m,
+            self.stop_distance_m,
+            self.cfg.door_pose_margin_m,
+        )
+        reach = max(self.cfg.door_standoff_m, self.cfg.door_exit_m) + fp.front + fp.rear + 1.0
+        origin = (grid.origin[0], grid.origin[1])
+
+        def depth(direction: np.ndarray) -> float:
+            return free_depth(
+                occ, grid.resolution, origin, centre, direction, room.half_width_m, reach
+            )
+
+        before = approach_distance(depth(-n), self.cfg.door_standoff_m, room)
+        after = exit_distance(depth(n), self.cfg.door_exit_m, room)
+        approach = self._free_point(centre, -n, before, floor, door.id)
+        exit_ = self._free_point(centre, n, after, floor, door.id)
         return Checkpoint(
             "door",
             door.id,
@@ -268,6 +295,7 @@ class RoutePlanner:
             door.type,
             width,
             centre=(float(centre[0]), float(centre[1])),
+            controller=door.controller,
         )
 
     def _free_point(

@@ -1,0 +1,77 @@
+"""Where to stand before a door and where the pass through it ends, from the space there.
+
+The seed used fixed distances (2.5 m before, 2.2 m through); in a small room, a corridor
+or between two doors in series those poses land inside a wall's or a cupboard's stop
+zone and the chair stands still. Here both come from the free depth along the door's
+normal, measured on the map in a strip as wide as the chair's clearance (other doors
+counted as closed):
+
+- approach: ``preferred_m`` before the door plane if the chair's rear (plus ``margin_m``)
+  fits, never so close that its front reaches the plane;
+- exit: ``preferred_m`` past the plane if the chair's front plus the controller's stop
+  distance (plus ``margin_m``) still fits, never so short that its rear is still in the
+  doorway.
+
+Pure: a bool occupancy grid in, distances out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PoseRoom:
+    """What the chair needs around a door pose (metres from the rear-axle pose point)."""
+
+    front_m: float
+    rear_m: float
+    half_width_m: float  # the chair's clearance half width
+    stop_m: float  # the controller's stop distance ahead of the front
+    margin_m: float = 0.05
+
+
+def free_depth(
+    occ: np.ndarray,
+    resolution: float,
+    origin: tuple[float, float],
+    centre: np.ndarray,
+    direction: np.ndarray,
+    half_width_m: float,
+    max_m: float,
+) -> float:
+    """How far from ``centre`` along unit ``direction`` a strip ``half_width_m`` each side
+    stays free on ``occ`` (row 0 at ``origin``'s y); ``max_m`` if it does all the way."""
+    step = resolution / 2
+    along = np.arange(step, max_m + step, step)
+    across = np.arange(-half_width_m, half_width_m + 1e-9, step)
+    side = np.array([-direction[1], direction[0]])
+    pts = (
+        centre[None, None, :]
+        + along[:, None, None] * direction[None, None, :]
+        + across[None, :, None] * side[None, None, :]
+    )
+    cols = np.floor((pts[..., 0] - origin[0]) / resolution).astype(int)
+    rows = np.floor((pts[..., 1] - origin[1]) / resolution).astype(int)
+    outside = (rows < 0) | (cols < 0) | (rows >= occ.shape[0]) | (cols >= occ.shape[1])
+    hit = outside | occ[np.clip(rows, 0, occ.shape[0] - 1), np.clip(cols, 0, occ.shape[1] - 1)]
+    blocked = np.flatnonzero(hit.any(axis=1))
+    return float(along[blocked[0]] - step) if len(blocked) else float(max_m)
+
+
+def approach_distance(depth_before_m: float, preferred_m: float, room: PoseRoom) -> float:
+    """How far before the door plane the pose point stands: ``preferred_m`` if the rear
+    fits, else as far back as it fits, but never with the front past the plane."""
+    least = room.front_m + room.margin_m
+    most = depth_before_m - room.rear_m - room.margin_m
+    return max(least, min(preferred_m, most))
+
+
+def exit_distance(depth_after_m: float, preferred_m: float, room: PoseRoom) -> float:
+    """How far past the door plane the pass ends: ``preferred_m`` if the front and the stop
+    zone fit, else as far as they fit, but never with the rear still in the doorway."""
+    least = room.rear_m + room.margin_m
+    most = depth_after_m - room.front_m - room.stop_m - room.margin_m
+    return max(least, min(preferred_m, most))
