@@ -216,3 +216,22 @@ def test_a_phase_travels_as_its_plain_string() -> None:
     status = decode(encode(NavStatus(1.0, "g1", "running", "Door d1 (2/3)", Phase.VERIFY)))
     assert status.phase == "verify" and type(status.phase) is str
     assert decode(encode(NavStatus(1.0, "g1", "idle", phase=Phase.IDLE))).phase == ""
+
+
+def test_a_stuck_door_with_no_other_way_ends_with_that_reason() -> None:
+    # issue 13 failure mode 6: a door stuck closed with no other way must end as "door X
+    # did not open within N s; no other route", not as a safety stop or a planner error.
+    no_way = RouteReply(False, error_code="no_path", error="no path from (1, 2) to (8, 2)")
+    fleet = ScriptedFleet(None, routes=[route(door()), no_way])
+    nav, out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    through_the_door(nav, fleet)
+    fleet.t = 61.0
+    step(nav, fleet)  # d1 blocked: re-plan
+    status = step(nav, fleet)
+    assert status.state == "failed"
+    assert status.reason.startswith("door d1 did not open within 60 s; no other route"), (
+        status.reason
+    )
+    assert fleet.stops > 0
