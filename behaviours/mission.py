@@ -234,7 +234,13 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
         door_width_m=cp.width_m,
     )
     steps += [
-        Timeout(f"Phase 2 {cp.id}", wait, nav.door_timeout_s, clock, _blocking(record, cp.id)),
+        Timeout(
+            f"Phase 2 {cp.id}",
+            wait,
+            nav.door_timeout_s,
+            clock,
+            _blocking(record, cp.id, f"door {cp.id} did not open within {nav.door_timeout_s:g} s"),
+        ),
         Timeout(
             f"Phase 3 {cp.id}",
             through,
@@ -287,7 +293,11 @@ def _elevator_steps(
         overrun_m=nav.pass_overrun_m,
         door_width_m=cp.width_m,
     )
-    blocked = _blocking(record, cp.id)
+    blocked = _blocking(
+        record,
+        cp.id,
+        f"lift {cp.id} did not come to floor {cp.floor} within {nav.lift_timeout_s:g} s",
+    )
     steps = [
         RequestLift(cp.id, cp.floor),
         _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
@@ -316,13 +326,16 @@ def _elevator_steps(
     return py_trees.composites.Sequence(f"Elevator {cp.id}", memory=True, children=steps)
 
 
-def _blocking(record: Callable[[str], None], checkpoint_id: str) -> Callable[[str], None]:
-    """A timeout callback that also names the checkpoint as blocked (the navigator re-plans)."""
+def _blocking(
+    record: Callable[[str], None], checkpoint_id: str, says: str
+) -> Callable[[str], None]:
+    """A timeout callback that records ``says`` (what did not happen, in words) and names
+    the checkpoint as blocked (the navigator re-plans around it)."""
     bb = py_trees.blackboard.Client(name=f"Blocking {checkpoint_id}", namespace=NS)
     bb.register_key("blocked", access=Access.WRITE)
 
-    def on_timeout(reason: str) -> None:
-        record(reason)
+    def on_timeout(_reason: str) -> None:
+        record(says)
         bb.blocked = checkpoint_id
 
     return on_timeout

@@ -150,8 +150,7 @@ class Navigator:
             elif result == Status.FAILURE and self._replan():
                 pass
             elif result == Status.FAILURE:
-                failure = self.bb.failure or "mission failed"
-                self._set("failed", reason="; then ".join([*self.fallbacks, failure]))
+                self._set("failed", reason=self._failure_reason())
             else:
                 tip = self.tree.tip()
                 self._set(
@@ -214,6 +213,16 @@ class Navigator:
         self._plan()
         self._set("running", phase=Phase.PLAN, action="re-plan")
         return True
+
+    def _failure_reason(self) -> str:
+        """Why the mission failed, with the fallbacks tried first. A re-plan that found no
+        route after a door or lift was given up reads "<what did not happen>; no other
+        route (<the planner's words>)"."""
+        failure = self.bb.failure or "mission failed"
+        if not self.driving and self.fallbacks and "NO_PATH" in failure:
+            detail = failure.split("NO_PATH: ", 1)[-1]
+            return "; then ".join(self.fallbacks) + f"; no other route ({detail})"
+        return "; then ".join([*self.fallbacks, failure])
 
     # ---- the status ---------------------------------------------------------------------
 

@@ -61,10 +61,16 @@ def free_depth(
     return float(along[blocked[0]] - step) if len(blocked) else float(max_m)
 
 
-def approach_distance(depth_before_m: float, preferred_m: float, room: PoseRoom) -> float:
+def approach_distance(
+    depth_before_m: float, preferred_m: float, room: PoseRoom, leaf_m: float = 0.0
+) -> float:
     """How far before the door plane the pose point stands: ``preferred_m`` if the rear
-    fits, else as far back as it fits, but never with the front past the plane."""
+    fits, else as far back as it fits, but never with the front past the plane, nor
+    within the sweep of a hinged leaf ``leaf_m`` long that opens towards the chair when
+    the rear still fits behind it."""
     least = room.front_m + room.margin_m
+    if leaf_m > 0 and room.front_m + leaf_m + room.rear_m + 2 * room.margin_m <= depth_before_m:
+        least += leaf_m
     most = depth_before_m - room.rear_m - room.margin_m
     return max(least, min(preferred_m, most))
 

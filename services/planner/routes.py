@@ -281,7 +281,10 @@ class RoutePlanner:
                 occ, grid.resolution, origin, centre, direction, room.half_width_m, reach
             )
 
-        before = approach_distance(depth(-n), self.cfg.door_standoff_m, room)
+        swings_left = door.swing == "left"
+        towards_chair = door.motion == "hinged" and swings_left == (side < 0)
+        leaf = width if towards_chair else 0.0
+        before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, leaf)
         after = exit_distance(depth(n), self.cfg.door_exit_m, room)
         approach = self._free_point(centre, -n, before, floor, door.id)
         exit_ = self._free_point(centre, n, after, floor, door.id)

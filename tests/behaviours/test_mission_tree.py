@@ -134,7 +134,7 @@ def test_door_that_never_opens_times_out_blocked_and_stops() -> None:
     fleet.t = 61.0
     tree.tick()
     assert tree.root.status == Status.FAILURE
-    assert bb.failure == "WaitForDoorOpen d1: timed out after 60 s" and bb.blocked == "d1"
+    assert bb.failure == "door d1 did not open within 60 s" and bb.blocked == "d1"
     assert not any(p.path_id == "r.door.d1" for p in fleet.sent)  # never drove at it
 
 
@@ -420,7 +420,7 @@ def test_busy_lift_times_out_and_is_named_for_another_one() -> None:
     tree.tick()
     assert tree.root.status == Status.FAILURE
     assert bb.blocked == "lift_a"  # the navigator re-plans with the other lift
-    assert bb.failure == "WaitForLift lift_a at 1: timed out after 30 s"
+    assert bb.failure == "lift lift_a did not come to floor 1 within 30 s"
 
 
 def test_route_steps_are_the_drive_sequence_by_name() -> None:

@@ -24,8 +24,8 @@ def test_door_stuck_closed_waits_then_stops_and_says_why() -> None:
     report, out = run("door_stuck_closed")
     assert not report["success"] and report["state"] == "failed"
     # it waited, gave up on the door, looked for another way, found none, and says so
-    assert report["reason"].startswith("WaitForDoorOpen door_ab: timed out after 30 s; then ")
-    assert "NO_PATH" in report["reason"] and "blocked: door_ab" in report["reason"]
+    assert report["reason"].startswith("door door_ab did not open within 30 s; no other route")
+    assert "blocked: door_ab" in report["reason"]
     assert report["collisions"] == 0
     assert [p["name"] for p in report["phases"]][-2:] == ["verify", "plan"]
     (door,) = report["checkpoints"]
@@ -68,7 +68,9 @@ def test_lift_out_of_service_uses_the_other_lift() -> None:
 def test_busy_lift_is_given_up_after_its_timeout_and_the_other_one_used() -> None:
     report, out = run("lift_busy")
     assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
-    assert report["fallbacks"] == ["avoiding lift_b: WaitForLift lift_b at 1: timed out after 30 s"]
+    assert report["fallbacks"] == [
+        "avoiding lift_b: lift lift_b did not come to floor 1 within 30 s"
+    ]
     lifts = [(c["id"], c["result"]) for c in report["checkpoints"] if c["kind"] == "elevator"]
     assert lifts == [("lift_b", "abandoned"), ("lift_a", "passed")]
 
@@ -154,7 +156,7 @@ def test_automatic_door_is_opened_by_idle_motion_and_only_by_it() -> None:
         fleet_output=Capture(),
     ).run()
     assert not still["success"] and still["collisions"] == 0
-    assert still["reason"].startswith("WaitForDoorOpen d1_lobby_1: timed out after 30 s")
+    assert still["reason"].startswith("door d1_lobby_1 did not open within 30 s")
 
 
 def test_door_closing_in_front_of_the_passing_chair_stops_it_within_half_a_metre() -> None:

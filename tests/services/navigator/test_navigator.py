@@ -91,7 +91,7 @@ def test_a_door_that_never_opens_is_avoided_and_the_route_planned_again() -> Non
     through_the_door(nav, fleet)
     fleet.t = 61.0  # the building never reports the door open
     status = step(nav, fleet)
-    reason = "WaitForDoorOpen d1: timed out after 60 s"
+    reason = "door d1 did not open within 60 s"
     assert out.unavailable == [Availability(61.0, "d1", False, reason)]
     assert fleet.avoided == {"d1"} and ("fallback", f"avoiding d1: {reason}") in fleet.events
     assert (status.state, status.phase, status.action) == ("running", Phase.PLAN, "re-plan")
@@ -120,7 +120,7 @@ def test_after_max_replans_the_mission_fails_with_every_reason() -> None:
     status = step(nav, fleet)
     assert status.state == "failed"
     assert status.reason == (
-        "WaitForDoorOpen d1: timed out after 60 s; then WaitForDoorOpen d2: timed out after 60 s"
+        "door d1 did not open within 60 s; then door d2 did not open within 60 s"
     )
     assert [u.name for u in out.unavailable] == ["d1"]  # the last one is not re-planned
     assert [r[2] for r in fleet.route_requests] == [[], ["d1"]]
@@ -221,7 +221,7 @@ def test_a_phase_travels_as_its_plain_string() -> None:
 def test_a_stuck_door_with_no_other_way_ends_with_that_reason() -> None:
     # issue 13 failure mode 6: a door stuck closed with no other way must end as "door X
     # did not open within N s; no other route", not as a safety stop or a planner error.
-    no_way = RouteReply(False, error_code="no_path", error="no path from (1, 2) to (8, 2)")
+    no_way = RouteReply(False, error_code="NO_PATH", error="no path from (1, 2) to (8, 2)")
     fleet = ScriptedFleet(None, routes=[route(door()), no_way])
     nav, out = navigator(fleet)
     nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
