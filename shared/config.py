@@ -331,6 +331,11 @@ class NavigatorConfig:
     lift_timeout_s: float = field(default=120.0, metadata=check(_positive))
     max_replans: int = field(default=3, metadata=check(_non_negative))
     safety_timeout_s: float = field(default=60.0, metadata=check(_positive))
+    # recoveries: held (obstacle, blocked) this long, back up, turn in place, re-plan
+    recovery_wait_s: float = field(default=8.0, metadata=check(_positive))
+    max_recoveries: int = field(default=3, metadata=check(_non_negative))
+    backup_m: float = field(default=0.4, metadata=check(_positive))
+    recovery_move_timeout_s: float = field(default=10.0, metadata=check(_positive))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))
     status_rate_hz: float = field(default=2.0, metadata=check(_positive))
     position_tolerance_m: float = field(default=0.15, metadata=check(_positive))

@@ -235,3 +235,30 @@ def test_a_stuck_door_with_no_other_way_ends_with_that_reason() -> None:
         status.reason
     )
     assert fleet.stops > 0
+
+
+def test_blocked_tries_recoveries_in_order_then_stops_with_the_reason() -> None:
+    # issue 13 failure mode 5: the controller reported "blocked" on the way out of a lift
+    # lobby and nothing was tried until the 60 s safety limit. Now: wait, back up, turn in
+    # place (when there is room), re-plan; each reported; only then a safe stop that says so.
+    fleet = ScriptedFleet(AROUND)
+    nav, out = navigator(fleet, max_recoveries=2, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    first = fleet.sent[-1].path_id
+    fleet.follow = FollowStatus(fleet.t, first, "blocked", 0.2, 1.8, 0.0)
+    while nav.status.state == "running" and fleet.t < 60.0:
+        fleet.t += 0.5
+        step(nav, fleet)
+        last = fleet.sent[-1]
+        if last.reverse or last.dock_heading is not None:  # a recovery move: done at once
+            fleet.arrive()
+            step(nav, fleet)
+            fleet.follow = FollowStatus(fleet.t, "x", "blocked", 0.2, 1.8, 0.0)
+    kinds = [detail.split(":")[0] for kind, detail in fleet.events if kind == "recovery"]
+    assert kinds[:3] == ["back up", "turn in place", "re-plan"], fleet.events
+    assert any(p.reverse for p in fleet.sent)
+    assert len(fleet.route_requests) == 3  # the first plan and one re-plan per recovery
+    assert nav.status.state == "failed" and fleet.t < 60.0
+    assert nav.status.reason.startswith("blocked"), nav.status.reason
+    assert "2 recoveries" in nav.status.reason
