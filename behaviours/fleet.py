@@ -67,6 +67,14 @@ class Fleet(Protocol):
         its leading edge ``lead_m`` ahead and the door plane, moving along ``direction``,
         through a door ``width_m`` wide (0: unknown); a jamb is not in the lane)."""
 
+    def room_to_turn(self, radius_m: float) -> bool:
+        """True if the latest scan has nothing within ``radius_m`` of the pose point (the
+        chair can turn on the spot without sweeping into anything)."""
+
+    def mark_blocking(self) -> int:
+        """Remember the scan points just ahead of the chair as obstacles for the route
+        requests of this mission (a re-plan goes around them); how many were marked."""
+
     def lift_state(self, lift_id: str) -> LiftState | None:
         """The building's last LiftState of ``lift_id``."""
 

@@ -27,7 +27,8 @@ out is named in ``/mission/blocked``: the navigator then plans around it.
 
 Blackboard (namespace ``/mission``): ``goal`` (Pose2D or None), ``place`` (str),
 ``route`` (RouteReply), ``action`` (str), ``phase`` (:class:`~shared.messages.Phase`),
-``failure`` (str), ``blocked`` (str).
+``failure`` (str), ``blocked`` (str), ``recover`` (str: the cause of a hold handed over
+to the navigator's recoveries).
 
 The route's steps (legs, doors, elevators) are the children of the sequence named
 :data:`DRIVE`; :func:`route_steps` finds them in a route tree.
@@ -35,6 +36,7 @@ The route's steps (legs, doors, elevators) are the children of the sequence name
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -144,12 +146,19 @@ class EntryParams:
     door_speed: float
     front_m: float
     rear_m: float
+    half_width_m: float = 0.325
 
     @classmethod
     def from_config(cls, cfg: FleetConfig) -> EntryParams:
         """The navigator section, the planner's door speed and the robot's footprint."""
         fp = cfg.robot.footprint
-        return cls(cfg.navigator, cfg.planner.door_speed, fp.front, fp.rear)
+        return cls(cfg.navigator, cfg.planner.door_speed, fp.front, fp.rear, fp.width / 2)
+
+    @property
+    def turn_radius_m(self) -> float:
+        """How far the chair's corners reach from the pose point when it turns on the spot
+        (about the rear axle), plus 5 cm."""
+        return math.hypot(max(self.front_m, self.rear_m), self.half_width_m) + 0.05
 
     @property
     def centre_offset_m(self) -> float:
@@ -326,6 +335,17 @@ def _elevator_steps(
     return py_trees.composites.Sequence(f"Elevator {cp.id}", memory=True, children=steps)
 
 
+def _recovering() -> Callable[[str], None]:
+    """The safety gate's hand-over: ``/mission/recover`` names the cause of the hold."""
+    bb = py_trees.blackboard.Client(name="Recovering", namespace=NS)
+    bb.register_key("recover", access=Access.WRITE)
+
+    def on_recover(cause: str) -> None:
+        bb.recover = cause
+
+    return on_recover
+
+
 def _blocking(
     record: Callable[[str], None], checkpoint_id: str, says: str
 ) -> Callable[[str], None]:
@@ -371,7 +391,15 @@ def create_route_tree(
         else:
             steps.append(_elevator_steps(cp, route_id, params, clock, record))
     drive = py_trees.composites.Sequence(DRIVE, memory=True, children=steps)
-    safety = SafetyGate("Safety", drive, clock, nav.safety_timeout_s, record)
+    safety = SafetyGate(
+        "Safety",
+        drive,
+        clock,
+        nav.safety_timeout_s,
+        record,
+        recover_after_s=nav.recovery_wait_s if nav.max_recoveries > 0 else None,
+        on_recover=_recovering(),
+    )
     return py_trees.composites.Selector("Route", memory=True, children=[safety, _safe_stop()])
 
 

@@ -6,7 +6,9 @@ its FollowStatus. A controller that has gone silent is unsafe too (the base's wa
 stops the chair, but nothing should be asked of it). The gate turns that into mission
 logic: it stops ticking the mission (pre-empting every phase, without resetting its
 progress, so the chair carries on where it was when the cause clears), reports when a
-stop starts and ends, and fails the mission if one lasts longer than its timeout. Phase
+stop starts and ends, and fails the mission if one lasts longer than its timeout. A hold
+that moving might clear (an obstacle, boxed in) hands over to the navigator's recoveries
+after ``recover_after_s`` instead (behaviours/recovery.py). Phase
 limits count the time under a hold: one that runs out while the gate holds ends its
 phase there and then, as it would have with the chair moving.
 """
@@ -21,6 +23,7 @@ from py_trees.common import Status
 from behaviours.timeouts import Timeout
 
 UNSAFE = ("stale_pose", "stale_scan", "obstacle", "blocked", "stale")
+RECOVERABLE = ("obstacle", "blocked")  # moving may clear these; stale inputs it cannot
 
 
 class SafetyGate(py_trees.decorators.Decorator):
@@ -42,8 +45,12 @@ class SafetyGate(py_trees.decorators.Decorator):
         on_timeout: Callable[[str], None],
         silent_s: float = 1.0,
         clear_s: float = 0.5,
+        recover_after_s: float | None = None,
+        on_recover: Callable[[str], None] | None = None,
     ) -> None:
         super().__init__(name=name, child=child)
+        self.recover_after_s = recover_after_s
+        self.on_recover = on_recover
         self.clock = clock
         self.timeout_s = timeout_s
         self.on_timeout = on_timeout
@@ -92,7 +99,20 @@ class SafetyGate(py_trees.decorators.Decorator):
         if self.status != Status.RUNNING:
             self.initialise()
         held = now - self.since
-        if held > self.timeout_s:
+        recover = (
+            self.recover_after_s is not None
+            and self.on_recover is not None
+            and cause in RECOVERABLE
+            and held >= self.recover_after_s
+        )
+        if recover:  # hand over to the navigator's recoveries
+            self.feedback_message = f"held: {cause} for {held:.1f} s, recovering"
+            self.fleet.stop()
+            self.on_recover(cause)
+            self.since, self.clear_since, self.cause = None, None, ""
+            self.stop(Status.FAILURE)
+            self.status = Status.FAILURE
+        elif held > self.timeout_s:
             reason = f"safety stop ({cause}) for more than {self.timeout_s:g} s"
             self.feedback_message = reason
             self.fleet.stop()

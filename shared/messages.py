@@ -306,12 +306,14 @@ class BuildingBodies(Msg):
 @dataclass
 class RouteRequest(Msg):
     """Ask the planner for a route from ``start`` to ``goal`` or to the named ``place``,
-    avoiding the doors and lifts named in ``avoid`` (ones that failed this mission)."""
+    avoiding the doors and lifts named in ``avoid`` (ones that failed this mission) and the
+    points in ``blocked`` (what held the chair, marked by a recovery; map frame, floor)."""
 
     start: Pose2D
     goal: Pose2D | None = None
     place: str = ""
     avoid: list[str] = field(default_factory=list)
+    blocked: list[Pose2D] = field(default_factory=list)
 
 
 @message("checkpoint", version=2)
@@ -400,7 +402,8 @@ class Phase(StrEnum):
     """What the mission is doing (``NavStatus.phase``; on the wire it is the plain string).
 
     Door entry: correct, turn, verify, pass (the seed's Phases 0-3). Elevator entry:
-    elevator (a request sent), call (waiting for the car), enter, ride, exit.
+    elevator (a request sent), call (waiting for the car), enter, ride, exit. Recover: back
+    up and turn in place after a hold (behaviours/recovery.py).
     """
 
     IDLE = ""
@@ -416,6 +419,7 @@ class Phase(StrEnum):
     ENTER = "enter"
     RIDE = "ride"
     EXIT = "exit"
+    RECOVER = "recover"
 
 
 @message("nav_status")

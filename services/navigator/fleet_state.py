@@ -9,6 +9,8 @@ mission's avoid set and lift session, and builds the messages the other half sen
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from services.navigator.door_check import UNKNOWN, door_state_from_scan, lane_blocked
@@ -49,14 +51,18 @@ class FleetState:
         sensor_height_m: float,
         half_width_m: float,
         source: str = "navigator",
+        front_m: float = 0.76,
+        rear_m: float = 0.35,
     ) -> None:
         self.robot = robot
         self.door_check = door_check
         self.sensor_height_m = sensor_height_m
         self.half_width_m = half_width_m
+        self.front_m, self.rear_m = front_m, rear_m  # the footprint around the pose point
         self.source = source
         self.clock: Clock | None = None
         self.avoided: set[str] = set()
+        self.blocking: list[tuple[float, float, str]] = []  # marked by recoveries (map frame)
         self.session = ""
         self._pose: PoseEstimate | None = None
         self._odom: Odometry | None = None
@@ -93,6 +99,7 @@ class FleetState:
     def new_mission(self, goal_id: str) -> None:
         """Forget the checkpoints avoided so far; lift requests now hold ``<robot>-<goal_id>``."""
         self.avoided.clear()
+        self.blocking.clear()
         self.session = f"{self.robot}-{goal_id}"
 
     def avoid(self, checkpoint_id: str) -> None:
@@ -121,6 +128,38 @@ class FleetState:
 
     def session_id(self) -> str:
         return self.session
+
+    def _band(self) -> np.ndarray:
+        """The latest scan's points in the door check's height band (sensor frame)."""
+        pts = self._scan.points
+        height = pts[:, 2] + self.sensor_height_m
+        band = self.door_check.band_m
+        return pts[(height >= band[0]) & (height <= band[1])]
+
+    def room_to_turn(self, radius_m: float) -> bool:
+        if self._scan is None or self._pose is None:
+            return False
+        pts = self._band()
+        return not bool(np.any(np.hypot(pts[:, 0], pts[:, 1]) < radius_m))
+
+    def mark_blocking(
+        self, front_m: float = 0.76, rear_m: float = 0.35, reach_m: float = 1.0
+    ) -> int:
+        if self._scan is None or self._pose is None:
+            return 0
+        pts = self._band()
+        beside = np.abs(pts[:, 1]) <= self.half_width_m + 0.1
+        ahead = (pts[:, 0] > front_m) & (pts[:, 0] < front_m + reach_m)
+        behind = (pts[:, 0] < -rear_m) & (pts[:, 0] > -rear_m - reach_m)
+        near = pts[beside & (ahead | behind)][
+            :: max(1, int(np.sum(beside & (ahead | behind))) // 60)
+        ]
+        p = self._pose.pose
+        c, s = math.cos(p.theta), math.sin(p.theta)
+        for x, y in near[:, :2]:
+            self.blocking.append((p.x + c * x - s * y, p.y + s * x + c * y, p.floor))
+        del self.blocking[:-400]
+        return len(near)
 
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         if self._scan is None or self._pose is None:
@@ -161,7 +200,13 @@ class FleetState:
         """A route from the current pose around the avoided checkpoints; None without a pose."""
         if self._pose is None:
             return None
-        return RouteRequest(start=self._pose.pose, goal=goal, place=place, avoid=list(self.avoided))
+        return RouteRequest(
+            start=self._pose.pose,
+            goal=goal,
+            place=place,
+            avoid=list(self.avoided),
+            blocked=[Pose2D(x, y, 0.0, floor) for x, y, floor in self.blocking],
+        )
 
     def stop_path(self) -> Path:
         """The empty path: the controller drops its path and commands zero speed."""

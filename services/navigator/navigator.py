@@ -16,14 +16,17 @@ over the bus, the tests with fakes.
 from __future__ import annotations
 
 import logging
+import math
 from typing import Protocol
 
+import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
 from behaviours.fleet import NS, Fleet
 from behaviours.mission import EntryParams, create_plan_tree, create_route_tree, route_steps
 from behaviours.motion import FollowPath
+from behaviours.recovery import create_recovery_tree
 from behaviours.snapshot import signature, snapshot
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
@@ -89,6 +92,8 @@ class Navigator:
         self.status = NavStatus(0.0, "", "idle")
         self.driving = False  # False: the plan tree runs; True: the route tree
         self.replans = 0
+        self.recoveries = 0
+        self.recovering = False  # the recovery tree runs (between a hold and a re-plan)
         self.fallbacks: list[str] = []
         self._steps_of: list[py_trees.behaviour.Behaviour] = []
         self._last_sent: tuple | None = None
@@ -96,7 +101,7 @@ class Navigator:
         self._tree_sig: tuple | None = None
         self._tree_sent_at = -1e9
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
-        for key in ("goal", "place", "failure", "phase", "route", "blocked", "action"):
+        for key in ("goal", "place", "failure", "phase", "route", "blocked", "action", "recover"):
             self.bb.register_key(key, access=Access.WRITE)
 
     @classmethod
@@ -128,9 +133,10 @@ class Navigator:
         # a running mission's tree is dropped as it stands: the controller keeps its path
         # until the new route's first path replaces it (a plan that fails stops the chair)
         self.bb.goal, self.bb.place, self.bb.failure = msg.goal, msg.place, ""
-        self.bb.phase, self.bb.blocked = Phase.IDLE, ""
+        self.bb.phase, self.bb.blocked, self.bb.recover = Phase.IDLE, "", ""
         self.fleet.new_mission(msg.goal_id)
         self.replans = 0
+        self.recoveries = 0
         self.fallbacks = []
         self._plan()
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
@@ -143,7 +149,11 @@ class Navigator:
             self.tree.tick()
             self._stream_tree(now)
             result = self.tree.root.status
-            if result == Status.SUCCESS and not self.driving:
+            if self.recovering and result in (Status.SUCCESS, Status.FAILURE):
+                self._after_recovery()
+            elif result == Status.FAILURE and self.bb.recover:
+                self._recover()
+            elif result == Status.SUCCESS and not self.driving:
                 self._drive(self.bb.route)
             elif result == Status.SUCCESS:
                 self._set("succeeded", reason="arrived")
@@ -213,6 +223,72 @@ class Navigator:
         self._plan()
         self._set("running", phase=Phase.PLAN, action="re-plan")
         return True
+
+    def _recover(self) -> None:
+        """A hold the safety gate handed over: back up and turn (the recovery tree), then
+        re-plan around what blocked the chair; a safe stop once the recoveries run out."""
+        cause, self.bb.recover = self.bb.recover, ""
+        est = self.fleet.pose()
+        where = f" at ({est.pose.x:.2f}, {est.pose.y:.2f})" if est is not None else ""
+        if self.recoveries >= self.cfg.max_recoveries:
+            self.fleet.stop()
+            self.fleet.event("recovery", f"given up: {cause}{where}")
+            failure = (
+                f"blocked ({cause}){where}: {self.recoveries} recoveries (back up, turn in "
+                f"place, re-plan) did not clear it"
+            )
+            self._set("failed", reason="; then ".join([*self.fallbacks, failure]))
+            return
+        self.recoveries += 1
+        marked = self.fleet.mark_blocking()
+        self.log.warning(
+            "held (%s)%s: recovery %d of %d", cause, where, self.recoveries, self.cfg.max_recoveries
+        )
+        self.fleet.event(
+            "recovery",
+            f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s: "
+            f"recovery {self.recoveries} of {self.cfg.max_recoveries}, "
+            f"{marked} blocking points marked",
+        )
+        self.recovering, self.driving = True, False
+        self._grow(
+            create_recovery_tree(
+                self._way_on(),
+                self.entry.turn_radius_m,
+                self.entry.nav.correction_speed,
+                self.cfg,
+                self.fleet.now,
+            )
+        )
+        self._set("running", phase=Phase.RECOVER, action="recover")
+
+    def _after_recovery(self) -> None:
+        self.recovering = False
+        self.fleet.event("recovery", "re-plan: around the marked points, from here")
+        self._plan()
+        self._set("running", phase=Phase.PLAN, action="re-plan")
+
+    def _way_on(self) -> tuple[float, float]:
+        """The point to face after backing up: 1.5 m on along the route being driven from
+        its point nearest the chair (the route's end if nearer; the chair's front without a
+        route or pose)."""
+        est = self.fleet.pose()
+        route = self.bb.route
+        if est is None:
+            return (0.0, 0.0)
+        p = est.pose
+        ahead = (p.x + 1.5 * math.cos(p.theta), p.y + 1.5 * math.sin(p.theta))
+        if route is None or not route.legs:
+            return ahead
+        legs = [leg for leg in route.legs if leg.floor in ("", p.floor)] or route.legs
+        pts = np.concatenate([np.asarray(leg.waypoints, float) for leg in legs])
+        if len(pts) == 0:
+            return ahead
+        i = int(np.argmin(np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)))
+        seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
+        j = i + int(np.searchsorted(np.cumsum(seg), 1.5)) + 1 if len(seg) else i
+        x, y = pts[min(j, len(pts) - 1)]
+        return float(x), float(y)
 
     def _failure_reason(self) -> str:
         """Why the mission failed, with the fallbacks tried first. A re-plan that found no

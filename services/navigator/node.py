@@ -46,6 +46,8 @@ class ZenohFleet(FleetState):
             cfg.robot.lidar_height_m,
             cfg.robot.clearance_half_width_m,
             source=NAME,
+            front_m=cfg.robot.footprint.front,
+            rear_m=cfg.robot.footprint.rear,
         )
         self.bus = bus
         self.keys = keys

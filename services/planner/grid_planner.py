@@ -88,20 +88,24 @@ class Planner:
         goal: tuple[float, float],
         floor: str,
         closed: list[tuple[tuple[float, float], tuple[float, float]]] = (),
+        points: list[tuple[float, float]] = (),
     ) -> Plan:
         """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor).
 
-        ``closed`` lists segments (door openings) the path must not cross.
+        ``closed`` lists segments (door openings) the path must not cross; ``points`` are
+        obstacles the map lacks (what held the chair), inflated like the map's.
         """
         floor = self.floor_name(floor)
         fg = self._floors[floor]
         s = self._cell(fg, start, "start", errors.StartOccupied)
         g = self._cell(fg, goal, "goal", errors.GoalOccupied)
         lethal = fg.lethal
-        if closed:
+        if closed or len(points):
             lethal = lethal.copy()
             for p1, p2 in closed:
                 block_segment(lethal, fg.grid, p1, p2)
+            for p in points:
+                block_segment(lethal, fg.grid, p, p, self.radius)
             lethal[s] = lethal[g] = False
         try:
             cells = astar(lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks)

@@ -88,6 +88,7 @@ def main(argv: list[str] | None = None) -> None:
                     goal_floor,
                     req.place,
                     req.avoid,
+                    [(b.x, b.y, b.floor) for b in req.blocked],
                 )
             except PlanError as exc:
                 svc.log.warning("route refused (%s): %s", exc.code, exc)

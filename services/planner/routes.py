@@ -80,6 +80,7 @@ class RoutePlanner:
         self.cfg = cfg
         self.blocked_doors: set[str] = set()
         self.unavailable_lifts: set[str] = set()
+        self._points: dict[str, list[tuple[float, float]]] = {}  # this request's obstacles
         self.rooms = {
             name: segment_rooms(
                 f.map.occupied(True), f.map.resolution, (f.map.origin[0], f.map.origin[1])
@@ -106,21 +107,27 @@ class RoutePlanner:
         goal_floor: str,
         place: str = "",
         avoid: list[str] = (),
+        blocked: list[tuple[float, float, str]] = (),
     ) -> Route:
         """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed),
-        treating the doors and lifts in ``avoid`` as unavailable for this request."""
+        treating the doors and lifts in ``avoid`` as unavailable for this request and the
+        points in ``blocked`` (x, y, floor) as obstacles."""
         if place:
             gx, gy, _theta, goal_floor = self.planner.resolve_place(place)
             goal = (gx, gy)
         elif goal is None:
             raise errors.BadRequest("route request has neither goal nor place")
         saved = (set(self.blocked_doors), set(self.unavailable_lifts))
+        self._points = {}
+        for x, y, floor in blocked:
+            self._points.setdefault(self.planner.floor_name(floor), []).append((x, y))
         try:
             for name in avoid:
                 self.set_door_blocked(name, True)
             return self.route(start, start_floor, goal, goal_floor)
         finally:
             self.blocked_doors, self.unavailable_lifts = saved
+            self._points = {}
 
     def route(
         self,
@@ -189,7 +196,7 @@ class RoutePlanner:
             doors = self.detected_doors(start, goal, floor)
         blocked = [(d.p1, d.p2) for d in doors if d.id in self.blocked_doors]
         try:
-            whole = self.planner.plan(start, goal, floor, blocked)
+            whole = self.planner.plan(start, goal, floor, blocked, self._points.get(floor, ()))
         except errors.NoPath as exc:
             if blocked:
                 names = ", ".join(sorted(d.id for d in doors if d.id in self.blocked_doors))
@@ -239,7 +246,7 @@ class RoutePlanner:
     def _leg(self, a, b, floor: str, closed: list[Segment], end: str = "goal") -> Plan:
         """A leg that ends standing still at ``b`` (a door's approach pose or the goal),
         with a zone tag per waypoint (``end`` near its end, else room or corridor)."""
-        plan = self.planner.plan(a, b, floor, closed)
+        plan = self.planner.plan(a, b, floor, closed, self._points.get(floor, ()))
         self._tag_zones(plan, end)
         return plan
 

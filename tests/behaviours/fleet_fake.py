@@ -55,6 +55,8 @@ class ScriptedFleet:
         self.events: list[tuple[str, str]] = []
         self.session = "s1"
         self.avoided: set[str] = set()
+        self.turn_room = True
+        self.marked = 0
 
     def now(self) -> float:
         return self.t
@@ -106,6 +108,13 @@ class ScriptedFleet:
         self.widths.append(width_m)
         self.scan_stamp += 0.1
         return self.scan_stamp, self.lane
+
+    def room_to_turn(self, radius_m: float) -> bool:
+        return self.turn_room
+
+    def mark_blocking(self) -> int:
+        self.marked += 1
+        return 3
 
     def lift_state(self, lift_id: str):
         return self.lifts.get(lift_id)

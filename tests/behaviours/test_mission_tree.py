@@ -461,7 +461,9 @@ def test_a_phase_limit_counts_the_time_under_a_safety_hold() -> None:
     # never ended it, because time under the hold did not count: the 60 s safety limit did.
     bb = blackboard()
     fleet = ScriptedFleet(None)
-    tree = route_tree(ROUTE, fleet, correction_timeout_s=20.0, safety_timeout_s=60.0)
+    tree = route_tree(
+        ROUTE, fleet, correction_timeout_s=20.0, safety_timeout_s=60.0, max_recoveries=0
+    )
     tree.tick()
     fleet.arrive()  # leg 0 done: Phase 0 starts now
     tree.tick()

@@ -1,0 +1,148 @@
+"""Recoveries for a chair held by an obstacle or boxed in ("blocked"), as Nav2 has them.
+
+After the safety gate has waited ``navigator.recovery_wait_s`` (the first recovery) the
+navigator runs :func:`create_recovery_tree`: back up along the way it came, then turn in
+place to face the way on (only when nothing stands within the chair's turning radius),
+each bounded by ``navigator.recovery_move_timeout_s`` and each reported as a
+``recovery`` event; a move that cannot be made is reported and skipped. The navigator
+then re-plans with the points that blocked the chair marked as obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import py_trees
+from py_trees.common import Status
+
+from behaviours.fleet import FleetBehaviour
+from behaviours.motion import DockAt
+from behaviours.timeouts import Timeout
+from shared.config import NavigatorConfig
+from shared.messages import Path, Phase
+
+
+class BackUp(FleetBehaviour):
+    """Drive ``distance_m`` straight back from where the chair stands (reverse, slowly):
+    the way it came, for the short distance a recovery needs.
+
+    The controller's stop zone looks behind while reversing, so an obstacle there stops
+    the move (it is then reported as not possible). SUCCESS on arrival; FAILURE when the
+    controller holds it (obstacle, blocked)."""
+
+    phase = Phase.RECOVER
+
+    def __init__(self, distance_m: float, speed: float, name: str = "Back up") -> None:
+        super().__init__(name)
+        self.distance_m, self.speed = distance_m, speed
+        self._path_id = ""
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        est = self.fleet.pose()
+        if est is None:
+            self._path_id = ""
+            return
+        p = est.pose
+        back = np.array([-math.cos(p.theta), -math.sin(p.theta)])
+        start = np.array([p.x, p.y])
+        pts = start + back * np.linspace(0.0, self.distance_m, 3)[:, None]
+        self._path_id = f"{self.name} @{self.fleet.now():.1f}"
+        v = np.array([self.speed, self.speed, 0.0])
+        self.fleet.send_path(Path(0.0, self._path_id, p.floor, pts, v, reverse=True))
+        self.fleet.event(
+            "recovery", f"back up: {self.distance_m:.2f} m from ({p.x:.2f}, {p.y:.2f})"
+        )
+
+    def update(self) -> Status:
+        if not self._path_id:
+            return self.fail("back up: no pose estimate")
+        status = self.fleet.follow_status()
+        if status is None or status.path_id != self._path_id:
+            return Status.RUNNING
+        if status.state == "arrived":
+            return Status.SUCCESS
+        if status.state in ("obstacle", "blocked"):
+            self.fleet.event("recovery", f"back up not possible: {status.state} behind")
+            return self.fail(f"back up held: {status.state}")
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status in (Status.INVALID, Status.FAILURE) and self.fleet is not None:
+            self.fleet.stop()
+
+
+class TurnToward(FleetBehaviour):
+    """Turn on the spot to face ``target`` (x, y), if nothing is within ``radius_m``."""
+
+    phase = Phase.TURN
+
+    def __init__(self, target: tuple[float, float], radius_m: float, nav: NavigatorConfig) -> None:
+        super().__init__("Turn in place")
+        self.target, self.radius_m, self.nav = target, radius_m, nav
+        self._dock: DockAt | None = None
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self._dock = None
+        est = self.fleet.pose()
+        if est is None or not self.fleet.room_to_turn(self.radius_m):
+            self.fleet.event("recovery", "turn in place skipped: no room to turn")
+            return
+        self.fleet.event(
+            "recovery", f"turn in place: towards ({self.target[0]:.1f}, {self.target[1]:.1f})"
+        )
+        self._dock = DockAt(
+            "Turn in place",
+            Phase.TURN,
+            est.pose.floor,
+            (est.pose.x, est.pose.y),
+            None,
+            self.nav.correction_speed,
+            self.nav.position_tolerance_m,
+            self.nav.turn_tolerance_deg,
+            1,
+            self.nav.correction_stall_s,
+            face=self.target,
+        )
+        self._dock.fleet = self.fleet
+        self._dock.initialise()
+
+    def update(self) -> Status:
+        if self._dock is None:
+            return Status.SUCCESS  # skipped: nothing to do
+        status = self._dock.update()
+        if status == Status.FAILURE:
+            self.fleet.event("recovery", f"turn in place failed: {self._dock.feedback_message}")
+        return status
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status in (Status.INVALID, Status.FAILURE) and self.fleet is not None:
+            self.fleet.stop()
+
+
+def create_recovery_tree(
+    face: tuple[float, float],
+    turn_radius_m: float,
+    back_speed: float,
+    nav: NavigatorConfig,
+    clock: Callable[[], float],
+) -> py_trees.behaviour.Behaviour:
+    """Back up, then turn in place towards ``face``; each bounded, a failure skipped."""
+    limit = nav.recovery_move_timeout_s
+
+    def bounded(child: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
+        return py_trees.decorators.FailureIsSuccess(
+            f"{child.name} (or skip)", Timeout(child.name, child, limit, clock)
+        )
+
+    return py_trees.composites.Sequence(
+        "Recover",
+        memory=True,
+        children=[
+            bounded(BackUp(nav.backup_m, back_speed)),
+            bounded(TurnToward(face, turn_radius_m, nav)),
+        ],
+    )
