@@ -1,0 +1,82 @@
+"""Campaign rows: judged against the generator's expectation, stored, summed up."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from shared.config import FleetConfig
+from wheelnav.campaign.results import ResultStore, door_requirement_m, judge
+from wheelnav.campaign.summary import figures, format_failures, format_figures, format_table
+from wheelnav.mission.scenario import Scenario
+
+
+def scenario(expect: str = "success", reason: str = "") -> Scenario:
+    return Scenario(
+        "b1.m0",
+        FleetConfig(),
+        None,
+        "room",
+        100.0,
+        Path("b1/m0.yaml"),
+        expect,
+        reason,
+        "same_floor",
+    )
+
+
+def report(success: bool, reason: str = "arrived", **extra) -> dict:
+    base = {
+        "success": success,
+        "state": "succeeded" if success else "failed",
+        "reason": reason,
+        "collisions": 0,
+        "sim_time_s": 40.0,
+        "wall_time_s": 8.0,
+        "planned_length_m": 10.0,
+        "min_clearance_away_m": 0.12,
+        "door_clearance": [{"door": "d1", "width_m": 0.9, "min_clearance_m": 0.10}],
+    }
+    return {**base, **extra}
+
+
+def test_a_success_as_expected_with_its_time_ratio_and_clearances() -> None:
+    row = judge(scenario(), report(True))
+    assert row["as_expected"] and row["clearance_ok"] and row["time_ratio"] == 2.0
+    assert row["door_clearance"][0]["required_m"] == round(door_requirement_m(0.9, 0.65), 4)
+    assert row["replay"] == "wheelnav mission b1/m0.yaml"
+
+
+def test_an_expected_failure_needs_its_reason() -> None:
+    want = scenario("failure", "door d1 did not open")
+    assert judge(want, report(False, "door d1 did not open within 20 s; no other route"))[
+        "as_expected"
+    ]
+    assert not judge(want, report(False, "safety stop (obstacle) for more than 60 s"))[
+        "as_expected"
+    ]
+    assert not judge(want, report(True))["as_expected"]
+
+
+def test_collisions_and_tight_doors_are_counted() -> None:
+    row = judge(
+        scenario(),
+        report(
+            True,
+            collisions=1,
+            door_clearance=[{"door": "d1", "width_m": 0.9, "min_clearance_m": 0.05}],
+        ),
+    )
+    assert not row["as_expected"] and not row["clearance_ok"] and row["tight_doors"] == ["d1"]
+    f = figures([row], 2)
+    assert f["collisions"] == 1 and f["clearance_violations"] == 1 and f["missions_run"] == 1
+    assert "replay: wheelnav mission b1/m0.yaml" in format_failures([row])
+    assert "b1.m0" in format_table([row]) and "as expected 0" in format_figures(f)
+
+
+def test_rows_survive_a_stop(tmp_path: Path) -> None:
+    store = ResultStore(tmp_path)
+    assert store.get("b1.m0") is None
+    store.put(judge(scenario(), report(True)))
+    assert store.get("b1.m0")["as_expected"]
+    (tmp_path / "b1.m1.json").write_text("{half")  # a damaged row runs again
+    assert store.get("b1.m1") is None

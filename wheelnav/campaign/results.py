@@ -1,0 +1,109 @@
+"""One campaign mission's result row, judged against what its building's generator expected.
+
+A row is written as soon as its mission ends (one JSON file per mission), so a stopped
+campaign resumes where it stopped and never runs, drops or relabels a mission twice.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+from wheelnav.mission.scenario import Scenario
+
+CRUISE_SPEED_M_S = 0.5  # the ideal time is the planned length at this speed (issue 13)
+AWAY_CLEARANCE_M = 0.05  # min clearance away from door openings
+DOOR_SLACK_M = 0.03  # inside an opening: (free width - chair width) / 2 less this
+
+
+def door_requirement_m(width_m: float, chair_width_m: float) -> float:
+    """The least clearance accepted inside an opening ``width_m`` wide."""
+    return (width_m - chair_width_m) / 2 - DOOR_SLACK_M
+
+
+def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
+    """The row for one run: outcome against expectation, clearances against the limits."""
+    chair_w = scenario.config.robot.footprint.width
+    expected = scenario.expect
+    outcome = "success" if report["success"] else report.get("state", "failed")
+    reason = report.get("reason", "")
+    if expected == "success":
+        as_expected = bool(report["success"])
+    else:
+        matches = not scenario.expect_reason or bool(
+            re.search(scenario.expect_reason, reason, re.IGNORECASE)
+        )
+        as_expected = not report["success"] and report.get("state") == "failed" and matches
+    as_expected = as_expected and report.get("collisions", 0) == 0
+    doors = [
+        {
+            **d,
+            "required_m": round(door_requirement_m(d["width_m"], chair_w), 4),
+        }
+        for d in report.get("door_clearance", [])
+    ]
+    tight_doors = [
+        d["door"]
+        for d in doors
+        if d["min_clearance_m"] is not None and d["min_clearance_m"] < d["required_m"]
+    ]
+    away = report.get("min_clearance_away_m")
+    planned = report.get("planned_length_m")
+    ratio = None
+    if report["success"] and planned:
+        ratio = round(report["sim_time_s"] / (planned / CRUISE_SPEED_M_S), 3)
+    return {
+        "mission": scenario.name,
+        "kind": scenario.kind,
+        "expected": expected,
+        "expect_reason": scenario.expect_reason,
+        "outcome": outcome,
+        "as_expected": as_expected,
+        "collisions": report.get("collisions", 0),
+        "min_clearance_away_m": away,
+        "clearance_ok": (away is None or away >= AWAY_CLEARANCE_M) and not tight_doors,
+        "tight_doors": tight_doors,
+        "door_clearance": doors,
+        "sim_time_s": report["sim_time_s"],
+        "wall_time_s": report.get("wall_time_s"),
+        "planned_length_m": planned,
+        "time_ratio": ratio,
+        "reason": reason,
+        "scenario": str(scenario.path),
+        "replay": f"wheelnav mission {scenario.path}",
+    }
+
+
+class ResultStore:
+    """Rows on disk, one file per mission, under ``folder``."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+
+    def _path(self, mission: str) -> Path:
+        return self.folder / f"{mission}.json"
+
+    def get(self, mission: str) -> dict[str, Any] | None:
+        """The stored row of ``mission``, None if it has not run (or its file is damaged)."""
+        path = self._path(mission)
+        try:
+            return json.loads(path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def put(self, row: dict[str, Any]) -> None:
+        """Store a row atomically (a stop mid-write leaves the old state, not half a file)."""
+        path = self._path(row["mission"])
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(row, indent=1, default=_plain))
+        tmp.replace(path)
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return str(value)

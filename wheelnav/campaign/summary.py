@@ -1,0 +1,128 @@
+"""What a campaign adds up to: the mission table, the figures, the geometry histogram."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+import numpy as np
+
+
+def figures(rows: list[dict[str, Any]], planned: int) -> dict[str, Any]:
+    """Counts and rates over the rows that ran (``planned``: missions in the campaign)."""
+    ran = [r for r in rows if r.get("outcome") != "not run"]
+    ok = [r for r in ran if r["as_expected"]]
+    ratios = [r["time_ratio"] for r in ran if r.get("time_ratio") is not None]
+    away = [r["min_clearance_away_m"] for r in ran if r.get("min_clearance_away_m") is not None]
+    slack = [
+        d["min_clearance_m"] - d["required_m"]
+        for r in ran
+        for d in r.get("door_clearance", [])
+        if d["min_clearance_m"] is not None
+    ]
+    by_kind: dict[str, list[int]] = {}
+    for r in ran:
+        counts = by_kind.setdefault(r.get("kind") or "-", [0, 0])
+        counts[0] += int(r["as_expected"])
+        counts[1] += 1
+    return {
+        "missions_planned": planned,
+        "missions_run": len(ran),
+        "as_expected": len(ok),
+        "as_expected_pct": round(100 * len(ok) / len(ran), 1) if ran else None,
+        "collisions": sum(r["collisions"] for r in ran),
+        "clearance_violations": sum(not r["clearance_ok"] for r in ran),
+        "min_clearance_away_m": round(min(away), 4) if away else None,
+        "min_door_slack_m": round(min(slack), 4) if slack else None,
+        "time_ratio_median": round(float(np.median(ratios)), 3) if ratios else None,
+        "time_ratio_p90": round(float(np.percentile(ratios, 90)), 3) if ratios else None,
+        "by_kind": {k: f"{v[0]}/{v[1]}" for k, v in sorted(by_kind.items())},
+    }
+
+
+def format_table(rows: list[dict[str, Any]]) -> str:
+    """One line per mission: outcome, expected outcome, collisions, clearances, time ratio."""
+    head = (
+        f"{'mission':28s} {'kind':18s} {'outcome':8s} {'expect':8s} {'ok':3s} {'coll':>4s} "
+        f"{'away m':>6s} {'door m':>6s} {'t/ideal':>7s}  reason"
+    )
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        door = [d["min_clearance_m"] for d in r.get("door_clearance", []) if d["min_clearance_m"]]
+        away, tightest = r.get("min_clearance_away_m"), min(door, default=None)
+        lines.append(
+            f"{r['mission'][:28]:28s} {(r.get('kind') or '-')[:18]:18s} "
+            f"{r['outcome'][:8]:8s} {r['expected'][:8]:8s} "
+            f"{'yes' if r['as_expected'] else 'NO':3s} {r['collisions']:4d} "
+            f"{_num(away, '6.3f')} {_num(tightest, '6.3f')} "
+            f"{_num(r.get('time_ratio'), '7.2f')}  {r['reason'][:70]}"
+        )
+    return "\n".join(lines)
+
+
+def format_figures(f: dict[str, Any]) -> str:
+    """The campaign's figures, one per line."""
+    kinds = ", ".join(f"{k} {v}" for k, v in f["by_kind"].items())
+    return "\n".join(
+        [
+            f"missions run {f['missions_run']} of {f['missions_planned']}; as expected "
+            f"{f['as_expected']} ({_num(f['as_expected_pct'], '.1f')} %); collisions "
+            f"{f['collisions']}",
+            f"by kind: {kinds or '-'}",
+            f"clearance: min away from doors {_num(f['min_clearance_away_m'], '.3f')} m "
+            f"(limit 0.050), min slack in openings {_num(f['min_door_slack_m'], '.3f')} m "
+            f"(limit 0), missions below a limit {f['clearance_violations']}",
+            f"mission time / (planned length / 0.5 m/s), successful missions: median "
+            f"{_num(f['time_ratio_median'], '.2f')}, 90th percentile "
+            f"{_num(f['time_ratio_p90'], '.2f')}",
+        ]
+    )
+
+
+def format_failures(rows: list[dict[str, Any]]) -> str:
+    """Every mission not as expected, with the one command that replays it."""
+    bad = [r for r in rows if r.get("outcome") != "not run" and not r["as_expected"]]
+    if not bad:
+        return "every mission as expected"
+    lines = [f"{len(bad)} mission(s) not as expected:"]
+    for r in bad:
+        lines.append(f"  {r['mission']}: {r['outcome']} (expected {r['expected']}): {r['reason']}")
+        lines.append(f"    replay: {r['replay']}")
+    return "\n".join(lines)
+
+
+HISTOGRAMS = {  # geometry key -> (title, bin edges)
+    "door_widths_m": ("door width m", [0.8, 0.9, 1.0, 1.1, 1.21]),
+    "corridor_widths_m": ("corridor width m", [1.2, 1.5, 2.0, 2.5, 3.01]),
+    "room_sizes_m2": ("room area m2", [0, 8, 15, 30, 60, 1e9]),
+    "hall_sizes_m2": ("hall area m2", [0, 200, 400, 600, 1e9]),
+}
+
+
+def format_geometry(geometry: list[dict[str, Any]]) -> str:
+    """Histograms of what the generator drew, over every building of the campaign."""
+    lines = ["geometry drawn:"]
+    for key, (title, edges) in HISTOGRAMS.items():
+        values = [v for g in geometry for v in g.get(key, [])]
+        if not values:
+            lines.append(f"  {title}: none")
+            continue
+        counts, _ = np.histogram(values, bins=edges)
+        lines.append(f"  {title} ({len(values)}):")
+        for lo, hi, n in zip(edges[:-1], edges[1:], counts, strict=True):
+            label = f"{lo:g}-{hi:g}" if hi < 1e8 else f">= {lo:g}"
+            lines.append(f"    {label:>12s} {n:4d} {'#' * min(int(n), 60)}")
+    series = sum(g.get("doors_in_series", 0) for g in geometry)
+    headings = Counter(int(h) for g in geometry for h in g.get("lift_headings_deg", []))
+    floors = Counter(int(g.get("floors", 1)) for g in geometry)
+    lines.append(f"  doors in series (pairs): {series}")
+    turns = ", ".join(f"{h}: {n}" for h, n in sorted(headings.items())) or "none"
+    lines.append(f"  lift headings deg: {turns}")
+    per = ", ".join(f"{k}: {v}" for k, v in sorted(floors.items()))
+    lines.append(f"  floors per building: {per}")
+    return "\n".join(lines)
+
+
+def _num(value, fmt: str) -> str:
+    width = fmt.split(".")[0] if fmt[0].isdigit() else ""
+    return format(value, fmt) if value is not None else format("-", f">{width or 1}s")
