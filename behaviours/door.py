@@ -35,8 +35,9 @@ class WaitForDoorOpen(FleetBehaviour):
 
     The building must report ``door_id`` OPEN and, when ``centre`` is given, the LiDAR
     check (of a door ``width_m`` wide, 0 if unknown) must have said "open" in ``scans``
-    consecutive new scans. CLOSED, MOVING, OFFLINE, UNKNOWN, no report, and a LiDAR
-    "unknown" are all "not open". The timeout above it bounds the wait. ``stop_on_start``
+    consecutive new scans (``building`` False: a door without a controller, the LiDAR
+    alone decides; it must then have a ``centre``). CLOSED, MOVING, OFFLINE, UNKNOWN, no
+    report, and a LiDAR "unknown" are all "not open". The timeout above it bounds the wait. ``stop_on_start``
     (default) stops the chair first; idle motion running beside it sets it False.
     """
 
@@ -49,8 +50,10 @@ class WaitForDoorOpen(FleetBehaviour):
         scans: int = 3,
         stop_on_start: bool = True,
         width_m: float = 0.0,
+        building: bool = True,
     ) -> None:
         super().__init__(f"WaitForDoorOpen {door_id}")
+        self.building = building
         self.door_id = door_id
         self.centre = centre
         self.width_m = width_m
@@ -64,7 +67,7 @@ class WaitForDoorOpen(FleetBehaviour):
             self.fleet.stop()
 
     def update(self) -> Status:
-        mode = self.fleet.door_mode(self.door_id)
+        mode = self.fleet.door_mode(self.door_id) if self.building else DoorMode.OPEN
         lidar_ok = self.centre is None or self.lidar.update(
             *self.fleet.lidar_door_state(*self.centre, self.width_m)
         )

@@ -210,7 +210,8 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
         _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
         Timeout(f"Phase 1 {cp.id}", turn, nav.correction_timeout_s, clock, record),
     ]
-    if cp.door_type == "powered":
+    building = cp.controller  # a door without a controller is verified by LiDAR alone
+    if cp.door_type == "powered" and building:
         steps.append(RequestDoor(cp.id, DoorMode.OPEN))
     wait: py_trees.behaviour.Behaviour
     if cp.door_type == "automatic" and nav.idle_motion:  # rock so the motion sensor fires
@@ -219,7 +220,12 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
             policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
             children=[
                 WaitForDoorOpen(
-                    cp.id, centre, nav.door_scans, stop_on_start=False, width_m=cp.width_m
+                    cp.id,
+                    centre,
+                    nav.door_scans,
+                    stop_on_start=False,
+                    width_m=cp.width_m,
+                    building=building,
                 ),
                 IdleMotion(
                     cp.id, cp.floor, (a.x, a.y, a.theta), nav.idle_speed, nav.idle_amplitude_m
@@ -227,7 +233,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
             ],
         )
     else:
-        wait = WaitForDoorOpen(cp.id, centre, nav.door_scans, width_m=cp.width_m)
+        wait = WaitForDoorOpen(cp.id, centre, nav.door_scans, width_m=cp.width_m, building=building)
     through = DriveThrough(
         f"Pass {cp.id}",
         f"{route_id}.door.{cp.id}",
@@ -238,7 +244,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
         p.door_speed,
         centre,
         p.front_m,
-        door_id=cp.id,
+        door_id=cp.id if building else "",
         overrun_m=nav.pass_overrun_m,
         door_width_m=cp.width_m,
     )
@@ -258,7 +264,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
             record,
         ),
     ]
-    if cp.door_type == "powered":
+    if cp.door_type == "powered" and building:
         steps.append(RequestDoor(cp.id, DoorMode.CLOSED))
     return py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=steps)
 

@@ -112,14 +112,18 @@ class Building:
     def changed_states(self, now: float) -> list[DoorState | LiftState]:
         """States of the doors and lifts whose reported state changed since the last call."""
         out: list[DoorState | LiftState] = []
-        out += [d.state(now) for d in self.doors.values() if d.changed()]
+        out += [d.state(now) for d in self._reporting() if d.changed()]
         out += [lift.state(now) for lift in self.lifts.values() if lift.changed()]
         return out
 
     def all_states(self, now: float) -> list[DoorState | LiftState]:
-        return [d.state(now) for d in self.doors.values()] + [
+        return [d.state(now) for d in self._reporting()] + [
             lift.state(now) for lift in self.lifts.values()
         ]
+
+    def _reporting(self) -> list[DoorSim]:
+        """The doors with a controller (the site's ``controller`` key): only they report."""
+        return [d for d in self.doors.values() if d.door.controller]
 
     def bodies(self, now: float) -> BuildingBodies:
         names = list(self.lifts)

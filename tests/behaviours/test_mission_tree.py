@@ -476,3 +476,17 @@ def test_a_phase_limit_counts_the_time_under_a_safety_hold() -> None:
     assert tree.root.status == Status.FAILURE
     assert fleet.t <= start + 21.0, f"ended {fleet.t - start:.1f} s after Phase 0 began"
     assert bb.failure == "Correct d1: timed out after 20 s"
+
+
+def test_a_door_without_a_controller_is_verified_by_lidar_alone() -> None:
+    # issue 13 item 5: no building state for this door; three open scans let the chair pass
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.controller = False
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    for _ in range(3):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.door.d1"  # passing, with no DoorState ever
+    assert fleet.door_requests == []
