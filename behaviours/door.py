@@ -37,8 +37,9 @@ class WaitForDoorOpen(FleetBehaviour):
     check (of a door ``width_m`` wide, 0 if unknown) must have said "open" in ``scans``
     consecutive new scans (``building`` False: a door without a controller, the LiDAR
     alone decides; it must then have a ``centre``). CLOSED, MOVING, OFFLINE, UNKNOWN, no
-    report, and a LiDAR "unknown" are all "not open". The timeout above it bounds the wait. ``stop_on_start``
-    (default) stops the chair first; idle motion running beside it sets it False.
+    report, and a LiDAR "unknown" are all "not open". The timeout above it bounds the
+    wait. ``stop_on_start`` (default) stops the chair first; idle motion running beside
+    it sets it False.
     """
 
     phase = Phase.VERIFY
