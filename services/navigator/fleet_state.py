@@ -157,6 +157,7 @@ class FleetState:
         p = self._pose.pose
         c, s = math.cos(p.theta), math.sin(p.theta)
         for x, y in near[:, :2]:
+            x, y = float(x), float(y)  # scan points are float32; the wire wants numbers
             self.blocking.append((p.x + c * x - s * y, p.y + s * x + c * y, p.floor))
         del self.blocking[:-400]
         return len(near)

@@ -73,3 +73,18 @@ def test_a_mission_gets_its_session_and_avoid_set() -> None:
     assert s.event_message("safety_clear", "x").severity == "info"
     assert s.door_request("d1", DoorMode.OPEN).requester_id == "chair1"
     assert len(s.stop_path().waypoints) == 0
+
+
+def test_marked_blocking_points_go_into_the_next_route_request() -> None:
+    from shared.codec import encode
+    from shared.messages import PointCloud, Pose2D, PoseEstimate
+
+    fleet = state()
+    fleet.on_pose(PoseEstimate(1.0, Pose2D(2.0, 1.0, 0.0, "1"), np.eye(3)))
+    wall = np.array([[1.2, y, 0.0] for y in np.linspace(-0.3, 0.3, 7)], np.float32)
+    fleet.on_scan(PointCloud(1.0, "lidar", wall))
+    assert fleet.mark_blocking() == 7
+    req = fleet.route_request(None, "room_b")
+    assert len(req.blocked) == 7 and abs(req.blocked[0].x - 3.2) < 1e-6
+    encode(req)  # float32 scan values would not go on the wire
+    assert not fleet.room_to_turn(1.3) and fleet.room_to_turn(1.1)
