@@ -142,18 +142,15 @@ class FleetState:
         pts = self._band()
         return not bool(np.any(np.hypot(pts[:, 0], pts[:, 1]) < radius_m))
 
-    def mark_blocking(
-        self, front_m: float = 0.76, rear_m: float = 0.35, reach_m: float = 1.0
-    ) -> int:
+    def mark_blocking(self, reach_m: float = 1.0) -> int:
         if self._scan is None or self._pose is None:
             return 0
         pts = self._band()
         beside = np.abs(pts[:, 1]) <= self.half_width_m + 0.1
-        ahead = (pts[:, 0] > front_m) & (pts[:, 0] < front_m + reach_m)
-        behind = (pts[:, 0] < -rear_m) & (pts[:, 0] > -rear_m - reach_m)
-        near = pts[beside & (ahead | behind)][
-            :: max(1, int(np.sum(beside & (ahead | behind))) // 60)
-        ]
+        ahead = (pts[:, 0] > self.front_m) & (pts[:, 0] < self.front_m + reach_m)
+        behind = (pts[:, 0] < -self.rear_m) & (pts[:, 0] > -self.rear_m - reach_m)
+        near = pts[beside & (ahead | behind)]
+        near = near[:: max(1, len(near) // 60)]  # at most about 60 points per hold
         p = self._pose.pose
         c, s = math.cos(p.theta), math.sin(p.theta)
         for x, y in near[:, :2]:
