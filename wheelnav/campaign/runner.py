@@ -54,7 +54,7 @@ def generate(spec: CampaignSpec, err: TextIO = sys.stderr) -> list[dict[str, Any
     for i in range(spec.buildings):
         seed = spec.seed + i
         folder = spec.out / "buildings" / f"b{seed}"
-        options = GenOptions(missions=spec.missions, floors_max=spec.floors_max)
+        options = GenOptions(missions=spec.missions, floors=(1, spec.floors_max))
         built = generate_building(seed, folder, options)
         err.write(
             f"building b{seed}: {built.geometry.get('floors', 1)} floor(s), "
