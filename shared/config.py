@@ -287,7 +287,10 @@ class ControllerConfig:
     start_align_m: float = field(default=0.3, metadata=check(_non_negative))
     pose_timeout_s: float = field(default=0.5, metadata=check(_positive))
     scan_timeout_s: float = field(default=0.5, metadata=check(_positive))
+    # stop zone beyond the footprint: stop_distance_m at robot.max_speed, shorter in
+    # proportion when slower, never under stop_min_distance_m (controller/safety.py)
     stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
+    stop_min_distance_m: float = field(default=0.05, metadata=check(_non_negative))
     dock_tolerance_m: float = field(default=0.05, metadata=check(_positive))
     dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
     dock_speed: float = field(default=0.15, metadata=check(_positive))

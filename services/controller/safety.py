@@ -2,10 +2,12 @@
 
 A command is replaced by zero (and the reason reported as the follow state) when the
 pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when a LiDAR
-point lies in the stop zone: the strip ``stop_distance_m`` long in front of the
-footprint (behind it when reversing), as wide as the chair plus ``robot.side_margin_m``
-each side. Points beside the chair (a door's jambs) do not stop it. Pure: points come in
-the robot frame.
+point lies in the stop zone: the strip in front of the footprint (behind it when
+reversing), as wide as the chair plus ``robot.side_margin_m`` each side. Its length grows
+with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
+proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
+corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
+door's jambs) do not stop it. Pure: points come in the robot frame.
 """
 
 from __future__ import annotations
@@ -32,6 +34,12 @@ def stop_zone_hit(
     return bool(np.any(lateral & ahead))
 
 
+def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
+    """How far beyond the footprint the stop zone reaches at speed ``v``."""
+    share = min(1.0, abs(v) / robot.max_speed)
+    return max(cfg.stop_min_distance_m, cfg.stop_distance_m * share)
+
+
 def guard(
     v: float,
     w: float,
@@ -51,6 +59,6 @@ def guard(
         return v, w, state
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
-    if stop_zone_hit(scan_points, robot, v, cfg.stop_distance_m, band_m):
+    if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m):
         return 0.0, 0.0, "obstacle"
     return v, w, state

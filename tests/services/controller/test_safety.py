@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from services.controller.safety import guard, stop_zone_hit
+from services.controller.safety import guard, stop_zone_hit, stop_zone_length
 from shared.config import ControllerConfig, RobotConfig
 
 ROBOT = RobotConfig()
@@ -22,6 +22,22 @@ def test_stop_zone_is_the_strip_ahead_not_beside() -> None:
     assert not stop_zone_hit(pts((0.9, 0.0)), ROBOT, -0.2, 0.25, 0.5)  # reversing: look behind
     assert stop_zone_hit(pts((-0.45, 0.1)), ROBOT, -0.2, 0.25, 0.5)
     assert not stop_zone_hit(pts((0.9, 0.0)), ROBOT, 0.0, 0.25, 0.5)  # standing still
+
+
+def test_stop_zone_shrinks_with_speed() -> None:
+    """A docking crawl (0.07 m/s) next to a wall corner 0.2 m ahead is not stopped: the
+    strip is stop_distance_m long at full speed and shrinks with speed to a floor (seen in
+    a generated building: the chair stood 8 cm from its door pose for ever)."""
+    assert stop_zone_length(ROBOT.max_speed, ROBOT, CFG) == CFG.stop_distance_m
+    crawl = stop_zone_length(0.07, ROBOT, CFG)
+    assert CFG.stop_min_distance_m <= crawl < 0.1
+    assert stop_zone_length(0.0, ROBOT, CFG) == CFG.stop_min_distance_m
+    corner = pts((ROBOT.footprint.front + 0.2, 0.25))
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    assert guard(0.07, 0.0, "following", scan_points=corner, **ok)[2] == "following"
+    assert guard(0.5, 0.0, "following", scan_points=corner, **ok)[2] == "obstacle"
+    touching = pts((ROBOT.footprint.front + 0.02, 0.0))
+    assert guard(0.03, 0.0, "following", scan_points=touching, **ok)[2] == "obstacle"
 
 
 def test_guard_reasons() -> None:
