@@ -291,6 +291,10 @@ class ControllerConfig:
     # proportion when slower, never under stop_min_distance_m (controller/safety.py)
     stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
     stop_min_distance_m: float = field(default=0.05, metadata=check(_non_negative))
+    # turning on the spot (slower than turn_check_below_mps): the footprint turned
+    # turn_check_deg further must stay clear of scan points
+    turn_check_deg: float = field(default=15.0, metadata=check(_positive))
+    turn_check_below_mps: float = field(default=0.05, metadata=check(_non_negative))
     dock_tolerance_m: float = field(default=0.05, metadata=check(_positive))
     dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
     dock_speed: float = field(default=0.15, metadata=check(_positive))

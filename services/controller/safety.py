@@ -7,7 +7,9 @@ reversing), as wide as the chair plus ``robot.side_margin_m`` each side. Its len
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
 proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
-door's jambs) do not stop it. Pure: points come in the robot frame.
+door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
+the footprint turned ``turn_check_deg`` further must not take in a point it does not
+already hold. Pure: points come in the robot frame.
 """
 
 from __future__ import annotations
@@ -32,6 +34,34 @@ def stop_zone_hit(
     else:
         ahead = (pts[:, 0] <= -fp.rear) & (pts[:, 0] >= -fp.rear - stop_distance_m)
     return bool(np.any(lateral & ahead))
+
+
+def turn_sweep_hit(
+    points: np.ndarray, robot: RobotConfig, w: float, angle_rad: float, band_m: float
+) -> bool:
+    """True if turning on the spot by ``angle_rad`` (the sign of ``w``) brings a point (N, 3,
+    robot frame) inside the footprint grown by ``robot.side_margin_m`` that is not inside it
+    now: the corners of a chair turning in a small room sweep a circle the stop strip ahead
+    never sees."""
+    if points is None or len(points) == 0 or abs(w) < 1e-3:
+        return False
+    fp, m = robot.footprint, robot.side_margin_m
+    pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
+
+    def inside(p: np.ndarray) -> np.ndarray:
+        return (
+            (p[:, 0] >= -fp.rear - m)
+            & (p[:, 0] <= fp.front + m)
+            & (np.abs(p[:, 1]) <= fp.width / 2 + m)
+        )
+
+    pts = pts[~inside(pts)]
+    for phi in np.linspace(angle_rad / 4, angle_rad, 4) * np.sign(w):
+        c, s = np.cos(phi), np.sin(phi)
+        turned = np.column_stack((c * pts[:, 0] + s * pts[:, 1], -s * pts[:, 0] + c * pts[:, 1]))
+        if inside(turned).any():
+            return True
+    return False
 
 
 def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
@@ -60,5 +90,9 @@ def guard(
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
     if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m):
+        return 0.0, 0.0, "obstacle"
+    turning = abs(v) < cfg.turn_check_below_mps
+    angle = np.radians(cfg.turn_check_deg)
+    if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m):
         return 0.0, 0.0, "obstacle"
     return v, w, state

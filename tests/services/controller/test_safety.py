@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from services.controller.safety import guard, stop_zone_hit, stop_zone_length
+from services.controller.safety import guard, stop_zone_hit, stop_zone_length, turn_sweep_hit
 from shared.config import ControllerConfig, RobotConfig
 
 ROBOT = RobotConfig()
@@ -38,6 +38,20 @@ def test_stop_zone_shrinks_with_speed() -> None:
     assert guard(0.5, 0.0, "following", scan_points=corner, **ok)[2] == "obstacle"
     touching = pts((ROBOT.footprint.front + 0.02, 0.0))
     assert guard(0.03, 0.0, "following", scan_points=touching, **ok)[2] == "obstacle"
+
+
+def test_turning_on_the_spot_stops_before_a_corner_sweeps_into_a_wall() -> None:
+    """Seen in a generated building: the docking turn in a small room swung the chair's
+    front corner into a cupboard; the stop strip ahead only looks where it drives."""
+    fp = ROBOT.footprint
+    cupboard = pts((fp.front - 0.05, fp.width / 2 + 0.12))  # left of the front corner
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    assert guard(0.0, 0.5, "following", scan_points=cupboard, **ok)[2] == "obstacle"
+    assert guard(0.0, -0.5, "following", scan_points=cupboard, **ok)[2] == "following"
+    assert turn_sweep_hit(cupboard, ROBOT, 0.5, np.radians(15), 0.5)
+    beside_axle = pts((0.0, fp.width / 2 + 0.08))  # a jamb beside the wheels: turning is fine
+    assert not turn_sweep_hit(beside_axle, ROBOT, 0.5, np.radians(15), 0.5)
+    assert guard(0.3, 0.5, "following", scan_points=cupboard, **ok)[2] == "following"  # MPC's
 
 
 def test_guard_reasons() -> None:
