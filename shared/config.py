@@ -165,6 +165,8 @@ class PlannerConfig:
     door_exit_m: float = field(default=1.2, metadata=check(_positive))
     # door poses: kept between the chair (and its stop zone at the exit) and what is around
     door_pose_margin_m: float = field(default=0.05, metadata=check(_non_negative))
+    # legs to a door's or a lift's pose end with a straight run-in this long along it
+    run_in_m: float = field(default=1.0, metadata=check(_non_negative))
     door_speed: float = field(default=0.2, metadata=check(_positive))
     door_slow_radius_m: float = field(default=1.5, metadata=check(_non_negative))
     elevator_standoff_m: float = field(default=1.5, metadata=check(_positive))
@@ -295,6 +297,10 @@ class ControllerConfig:
     # turn_check_deg further must stay clear of scan points
     turn_check_deg: float = field(default=15.0, metadata=check(_positive))
     turn_check_below_mps: float = field(default=0.05, metadata=check(_non_negative))
+    # an MPC leg whose distance to go has not shrunk by stall_progress_m for stall_s
+    # (following all the while) reports "blocked", so the navigator's recoveries start
+    stall_s: float = field(default=15.0, metadata=check(_non_negative))
+    stall_progress_m: float = field(default=0.1, metadata=check(_positive))
     dock_tolerance_m: float = field(default=0.05, metadata=check(_positive))
     dock_heading_tolerance_deg: float = field(default=1.0, metadata=check(_positive))
     dock_speed: float = field(default=0.15, metadata=check(_positive))

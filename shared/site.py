@@ -79,6 +79,18 @@ class Door:
         """The opening's width: the distance from p1 to p2."""
         return math.hypot(self.p2[0] - self.p1[0], self.p2[1] - self.p1[1])
 
+    def open_leaf(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """A hinged leaf opened fully (90 degrees about ``p1``, to its ``swing`` side) as a
+        segment from the hinge to its tip; None for a sliding door. Maps draw the opening
+        free, yet an open leaf stands there like a short wall."""
+        if self.motion != "hinged":
+            return None
+        w = self.width_m
+        ux, uy = (self.p2[0] - self.p1[0]) / w, (self.p2[1] - self.p1[1]) / w
+        side = -1.0 if self.swing == "right" else 1.0
+        tip = (self.p1[0] - side * uy * w, self.p1[1] + side * ux * w)
+        return self.p1, tip
+
 
 @dataclass
 class Place:

@@ -16,6 +16,12 @@ lag. Stages:
   manoeuvre started that close): turning away to remove it would cost two more turns
   for a few centimetres that the pass's pure pursuit takes out anyway.
 
+The move stage looks at the LiDAR points it is given: driving to a target 0.3 m away by
+turning to face it can put the front into a wall a few centimetres beyond it. When the
+footprint at the target, facing the way it would drive, holds a point, it drives the
+other way (backwards or forwards) if that is clear, else it turns to the goal heading
+first and drives along it (the final stage), as a person would in a small room.
+
 Idle motion for automatic doors (small moves back and forth) uses the same manoeuvre with
 a low speed cap. Pure: the tracker hands in poses and gets commands.
 """
@@ -25,8 +31,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from services.controller.command import Command
-from shared.config import ControllerConfig, RobotConfig
+from shared.config import ControllerConfig, Footprint, RobotConfig
 from shared.geometry import angle_between, wrap_angle
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
@@ -67,8 +75,14 @@ class DockLimits:
 class Docker:
     """Drives to one pose (x, y, heading); ``set_goal`` starts, ``clear`` stops."""
 
-    def __init__(self, limits: DockLimits) -> None:
+    def __init__(
+        self, limits: DockLimits, footprint: Footprint | None = None, margin_m: float = 0.05
+    ) -> None:
         self.limits = limits
+        self.footprint = footprint
+        self.margin_m = margin_m
+        self._straight = False
+        self._points: np.ndarray | None = None
         self.goal: tuple[float, float, float] | None = None
         self.stage = "start"
         self._start_error = 0.0
@@ -86,13 +100,23 @@ class Docker:
         self._start_error = -1.0
         self._arrived = False
         self._backwards: bool | None = None
+        self._straight = False
         self._cap = self.limits.max_speed if max_speed is None else max_speed
 
     def clear(self) -> None:
         self.goal = None
 
-    def step(self, x: float, y: float, theta: float, pose_fresh: bool = True) -> Command:
-        """The command for pose (x, y, theta); zero when idle, arrived or the pose is stale."""
+    def step(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        pose_fresh: bool = True,
+        obstacles: np.ndarray | None = None,
+    ) -> Command:
+        """The command for pose (x, y, theta); zero when idle, arrived or the pose is stale.
+        ``obstacles`` (N, 2, map frame) are what the move stage keeps the footprint off."""
+        self._points = obstacles
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
         lim = self.limits
@@ -107,14 +131,16 @@ class Docker:
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         if not pose_fresh:
             return Command(0.0, 0.0, "stale", progress, dist, 0.0)
-        if self.stage == "final" and dist > LEAVE_FACTOR * lim.near_m:
+        if self.stage == "final" and dist > LEAVE_FACTOR * lim.near_m and not self._straight:
             self.stage = "move"  # pushed away: start over
         if self.stage == "start":  # close already: no need to drive towards it first
             self.stage = "final" if dist <= lim.near_m else "move"
         if self.stage == "move":
             if dist > lim.position_tolerance_m:
-                v, w = self._move(ex, ey, dist, theta)
-                return Command(v, w, "following", progress, dist, 0.0)
+                moved = self._move(ex, ey, dist, theta)
+                if moved is not None:
+                    return Command(*moved, "following", progress, dist, 0.0)
+                self._straight = True  # boxed in both ways: turn first, then along
             self.stage = "final"
         v, w, done = self._final(ex, ey, heading_err, gth)
         if done:
@@ -122,10 +148,16 @@ class Docker:
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         return Command(v, w, "following", progress, dist, 0.0)
 
-    def _move(self, ex: float, ey: float, dist: float, theta: float) -> tuple[float, float]:
-        """(v, w) of the move stage: face the target (or away from it), then drive."""
+    def _move(self, ex: float, ey: float, dist: float, theta: float) -> tuple[float, float] | None:
+        """(v, w) of the move stage: face the target (or away from it), then drive; None
+        when the footprint at the target holds a point whichever way it faces."""
         lim = self.limits
-        backwards = self._backwards_to(math.atan2(ey, ex), dist)
+        direction = math.atan2(ey, ex)
+        backwards = self._backwards_to(direction, dist)
+        if not self._fits(direction + (math.pi if backwards else 0.0)):
+            if not self._fits(direction + (0.0 if backwards else math.pi)):
+                return None
+            backwards = self._backwards = not backwards
         bearing = wrap_angle(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
         w = max(-lim.max_turn, min(lim.max_turn, lim.turn_gain * bearing))
         if abs(bearing) > ALIGN_RAD:
@@ -149,6 +181,20 @@ class Docker:
         if abs(heading_err) > lim.heading_tolerance_rad:
             return 0.0, w, False
         return 0.0, 0.0, True
+
+    def _fits(self, heading: float) -> bool:
+        """True if the footprint (grown by ``margin_m``) at the goal point facing
+        ``heading`` holds none of this cycle's points (always, without points)."""
+        pts, fp = self._points, self.footprint
+        if pts is None or fp is None or len(pts) == 0:
+            return True
+        gx, gy, _ = self.goal
+        c, s = math.cos(heading), math.sin(heading)
+        dx, dy = pts[:, 0] - gx, pts[:, 1] - gy
+        ax, lat = c * dx + s * dy, -s * dx + c * dy
+        m = self.margin_m
+        inside = (ax >= -fp.rear - m) & (ax <= fp.front + m) & (np.abs(lat) <= fp.width / 2 + m)
+        return not bool(inside.any())
 
     def _backwards_to(self, direction: float, dist: float) -> bool:
         """Drive backwards to a target in ``direction``? Within ``reverse_reach_m``, the

@@ -24,18 +24,46 @@ from shared.config import ConfigError, ControllerConfig, RobotConfig
 from shared.site import Site
 
 
+class StallWatch:
+    """Calls a leg blocked when its distance to go has not shrunk by ``progress_m`` for
+    ``after_s`` of following: a sampling MPC boxed in by a tight turn keeps "following"
+    without moving, and the mission would otherwise wait out the leg's long limit instead
+    of starting its recoveries."""
+
+    def __init__(self, after_s: float, progress_m: float) -> None:
+        self.after_s, self.progress_m = after_s, progress_m
+        self.reset()
+
+    def reset(self) -> None:
+        self.best = float("inf")
+        self.since = 0.0
+        self.stalled = False
+
+    def update(self, distance_to_goal: float, period_s: float) -> bool:
+        """Account one cycle; True once the leg is stalled (until the next path)."""
+        if distance_to_goal < self.best - self.progress_m:
+            self.best, self.since = distance_to_goal, 0.0
+        else:
+            self.since += period_s
+        self.stalled = self.stalled or (self.after_s > 0 and self.since >= self.after_s)
+        return self.stalled
+
+
 class Tracker:
     """Follows one path at a time with the configured tracker."""
 
     def __init__(self, cfg: ControllerConfig, robot: RobotConfig, site: Site | None) -> None:
         self.cfg = cfg
         self.pursuit = PathFollower(cfg, robot)
-        self.docker = Docker(DockLimits.from_config(cfg, robot))
+        self.docker = Docker(
+            DockLimits.from_config(cfg, robot), robot.footprint, robot.side_margin_m
+        )
         self.mpc: SamplingMPC | None = None
         self.fields: dict[str, tuple[np.ndarray, float, tuple[float, float]]] = {}
         self.floor = ""
         self.use_mpc = False
         self._precise = False
+        self.stall = StallWatch(cfg.stall_s, cfg.stall_progress_m)
         if cfg.mode == "mpc":
             try:
                 self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m)
@@ -89,6 +117,7 @@ class Tracker:
         """Follow a path; reverse and precise (door, lift car) passes use pure pursuit,
         a path with ``dock_heading`` is a docking manoeuvre to its last waypoint."""
         self.docker.clear()
+        self.stall.reset()
         self._precise = precise
         if dock_heading is not None and len(waypoints) > 0:
             cap = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else None
@@ -117,7 +146,7 @@ class Tracker:
     ) -> Command:
         """The command for this cycle (zero when the pose is stale or everything collides)."""
         if self.docker.active:
-            return self.docker.step(x, y, theta, fresh)
+            return self.docker.step(x, y, theta, fresh, obstacles)
         if not self.use_mpc:
             return self.pursuit.step(x, y, theta, fresh)
         if not fresh:
@@ -126,4 +155,7 @@ class Tracker:
         pursuit = self.pursuit.step(x, y, theta, fresh)  # keeps its progress in step too
         if pursuit.state == "arrived" or pursuit.distance_to_goal < self.cfg.final_approach_m:
             return pursuit
-        return self.mpc.step(x, y, theta, v, w, obstacles, period_s)
+        cmd = self.mpc.step(x, y, theta, v, w, obstacles, period_s)
+        if cmd.state == "following" and self.stall.update(cmd.distance_to_goal, period_s):
+            return Command(0.0, 0.0, "blocked", cmd.progress, cmd.distance_to_goal, cmd.cross_track)
+        return cmd

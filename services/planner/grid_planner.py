@@ -56,7 +56,7 @@ class Planner:
         self._floors: dict[str, _FloorGrid] = {}
         astar(np.zeros((3, 3), dtype=bool), (0, 0), (2, 2))  # compile (or load) the JIT now
         for name, floor in site.floors.items():
-            occ = floor.map.occupied(cfg.unknown_is_occupied)
+            occ = with_open_leaves(floor.map.occupied(cfg.unknown_is_occupied), site, name)
             lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)
             lm = Landmarks(lethal, cfg.landmarks) if cfg.landmarks and (~lethal).any() else None
             self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm)
@@ -89,11 +89,17 @@ class Planner:
         floor: str,
         closed: list[tuple[tuple[float, float], tuple[float, float]]] = (),
         points: list[tuple[float, float]] = (),
+        arrive_heading: float | None = None,
+        run_in_m: float = 0.0,
     ) -> Plan:
         """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor).
 
         ``closed`` lists segments (door openings) the path must not cross; ``points`` are
-        obstacles the map lacks (what held the chair), inflated like the map's.
+        obstacles the map lacks (what held the chair), inflated like the map's. With
+        ``arrive_heading``, the path ends with a straight run-in of up to ``run_in_m``
+        along that heading (shorter where the space behind the goal is), so the chair
+        arrives at a door's or a lift's pose facing it instead of turning on the spot
+        there, which a small room or a corridor may not allow.
         """
         floor = self.floor_name(floor)
         fg = self._floors[floor]
@@ -107,15 +113,23 @@ class Planner:
             for p in points:
                 block_segment(lethal, fg.grid, p, p, self.radius)
             lethal[s] = lethal[g] = False
+        pre = None
+        if arrive_heading is not None and run_in_m > 0:
+            pre = run_in_point(fg.grid, lethal, start, goal, arrive_heading, run_in_m)
+        end = g if pre is None else fg.grid.to_cell(*pre)
         try:
-            cells = astar(lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks)
+            cells = astar(
+                lethal, s, end, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks
+            )
         except NoPathError as exc:
             raise errors.NoPath(
                 f"no path from {_xy(start)} to {_xy(goal)} on floor {floor}: {exc}"
             ) from None
         corners = shorten(cells, lethal)
         pts = fg.grid.to_world(corners)
-        pts[0], pts[-1] = start, goal
+        pts[0], pts[-1] = start, goal if pre is None else pre
+        if pre is not None:
+            pts = np.vstack([pts, [goal]])
         length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
         spacing = max(self.cfg.waypoint_spacing_m, length / self.cfg.max_waypoints)
         waypoints = densify(pts, spacing)
@@ -142,6 +156,25 @@ class Planner:
         return r, c
 
 
+def with_open_leaves(occ: np.ndarray, site: Site, floor: str) -> np.ndarray:
+    """``occ`` with the fully open leaf of every hinged door on ``floor`` drawn in: a manual
+    door may stand open, its leaf a short wall the map does not show."""
+    leaves = [(d, d.open_leaf()) for d in site.doors if d.floor == floor]
+    leaves = [(d, leaf) for d, leaf in leaves if leaf is not None]
+    if not leaves:
+        return occ
+    occ = occ.copy()
+    grid = site.floor(floor).map
+    for door, (hinge, tip) in leaves:
+        # one cell out of the opening, beside the jamb: the leaf must not narrow its own door
+        ux, uy = (door.p1[0] - door.p2[0]) / door.width_m, (door.p1[1] - door.p2[1]) / door.width_m
+        shift = grid.resolution
+        a = (hinge[0] + ux * shift, hinge[1] + uy * shift)
+        b = (tip[0] + ux * shift, tip[1] + uy * shift)
+        block_segment(occ, grid, a, b, grid.resolution / 2)
+    return occ
+
+
 def _xy(p: tuple[float, float]) -> str:
     return f"({p[0]:.2f}, {p[1]:.2f})"
 
@@ -164,6 +197,36 @@ def block_segment(
             cols = np.floor((pts[:, 0] - grid.origin[0]) / grid.resolution).astype(int) + dc
             ok = (rows >= 0) & (rows < lethal.shape[0]) & (cols >= 0) & (cols < lethal.shape[1])
             lethal[rows[ok], cols[ok]] = True
+
+
+def run_in_point(
+    grid: GridMap,
+    lethal: np.ndarray,
+    start: tuple[float, float],
+    goal: tuple[float, float],
+    heading: float,
+    run_in_m: float,
+    min_m: float = 0.3,
+    lateral_m: float = 0.3,
+) -> tuple[float, float] | None:
+    """Where a straight run-in to ``goal`` along ``heading`` starts: ``run_in_m`` back, or
+    less where the space behind the goal is short (never under ``min_m``); None when
+    ``start`` already lies on that line behind the goal, is within ``run_in_m`` of it, or
+    no run-in fits."""
+    d = np.array([math.cos(heading), math.sin(heading)])
+    rel = np.asarray(start, float) - np.asarray(goal, float)
+    along, lateral = -float(rel @ d), abs(float(rel[0] * d[1] - rel[1] * d[0]))
+    if (along >= 0 and lateral <= lateral_m) or math.hypot(*rel) <= run_in_m:
+        return None  # on the line already, or too near for a run-in: docking turns it
+    g = np.array(grid.to_cell(*goal))
+    for r in np.arange(run_in_m, min_m - 1e-9, -0.1):
+        p = np.asarray(goal, float) - d * r
+        cell = grid.to_cell(float(p[0]), float(p[1]))
+        if not grid.contains(*cell) or lethal[cell]:
+            continue
+        if line_is_free(lethal, np.array(cell), g):
+            return float(p[0]), float(p[1])
+    return None
 
 
 def line_is_free(lethal: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:

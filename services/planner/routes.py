@@ -27,7 +27,7 @@ import numpy as np
 
 from services.planner import errors
 from services.planner.door_poses import PoseRoom, approach_distance, exit_distance, free_depth
-from services.planner.grid_planner import Plan, Planner, block_segment
+from services.planner.grid_planner import Plan, Planner, block_segment, with_open_leaves
 from services.planner.path_doors import detect_doors_along_path
 from services.planner.room_segmentation import RoomMap, segment_rooms
 from shared.config import PlannerConfig
@@ -167,7 +167,7 @@ class RoutePlanner:
         standoff = self.cfg.elevator_standoff_m
         entry = lift.entry_pose(start_floor, standoff)
         out = lift.entry_pose(goal_floor, standoff)
-        first = self.floor_route(start, entry[:2], start_floor)
+        first = self.floor_route(start, entry[:2], start_floor, entry[2])
         second = self.floor_route(out[:2], goal, goal_floor)
         inside = lift.inside_pose()
         ride = Checkpoint(
@@ -183,7 +183,11 @@ class RoutePlanner:
         return Route(first.legs + second.legs, first.checkpoints + [ride] + second.checkpoints)
 
     def floor_route(
-        self, start: tuple[float, float], goal: tuple[float, float], floor: str
+        self,
+        start: tuple[float, float],
+        goal: tuple[float, float],
+        floor: str,
+        arrive_heading: float | None = None,
     ) -> Route:
         """A route on one floor: legs joined by checkpoints for each door crossed.
 
@@ -205,6 +209,8 @@ class RoutePlanner:
         open_doors = [d for d in doors if d.id not in self.blocked_doors]
         crossed = crossings(whole.waypoints, open_doors)
         if not crossed:
+            if arrive_heading is not None:
+                return Route([self._leg(start, goal, floor, blocked, "goal", arrive_heading)])
             self._tag_zones(whole, "goal")
             return Route([whole])
         closed = [(d.p1, d.p2) for d in doors]
@@ -212,9 +218,9 @@ class RoutePlanner:
         legs = []
         here = start
         for cp in checkpoints:
-            legs.append(self._leg(here, cp.approach[:2], floor, closed, "door"))
+            legs.append(self._leg(here, cp.approach[:2], floor, closed, "door", cp.approach[2]))
             here = cp.exit[:2]
-        legs.append(self._leg(here, goal, floor, closed, "goal"))
+        legs.append(self._leg(here, goal, floor, closed, "goal", arrive_heading))
         return Route(legs, checkpoints)
 
     def detected_doors(
@@ -243,10 +249,21 @@ class RoutePlanner:
             for d in found
         ]
 
-    def _leg(self, a, b, floor: str, closed: list[Segment], end: str = "goal") -> Plan:
+    def _leg(
+        self,
+        a,
+        b,
+        floor: str,
+        closed: list[Segment],
+        end: str = "goal",
+        heading: float | None = None,
+    ) -> Plan:
         """A leg that ends standing still at ``b`` (a door's approach pose or the goal),
-        with a zone tag per waypoint (``end`` near its end, else room or corridor)."""
-        plan = self.planner.plan(a, b, floor, closed, self._points.get(floor, ()))
+        with a zone tag per waypoint (``end`` near its end, else room or corridor); with
+        ``heading``, it arrives along it (``planner.run_in_m``)."""
+        plan = self.planner.plan(
+            a, b, floor, closed, self._points.get(floor, ()), heading, self.cfg.run_in_m
+        )
         self._tag_zones(plan, end)
         return plan
 
@@ -268,7 +285,10 @@ class RoutePlanner:
         n = normal * side  # the direction of travel through the door
         heading = math.atan2(n[1], n[0])
         grid = self.site.floor(floor).map
-        occ = grid.occupied(self.planner.cfg.unknown_is_occupied).copy()
+        occ = with_open_leaves(
+            grid.occupied(self.planner.cfg.unknown_is_occupied), self.site, floor
+        )
+        occ = occ.copy()
         for other in self.site.doors:
             if other.floor == floor and other.id != door.id:
                 block_segment(occ, grid, other.p1, other.p2, grid.resolution)

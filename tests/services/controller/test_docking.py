@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from services.controller.docking import Docker, DockLimits
@@ -96,3 +97,37 @@ def test_a_pose_across_the_corridor_facing_the_other_way_turns_first_then_backs_
     assert math.hypot(x, y - 0.5) <= 0.05 + 0.01
     assert abs(math.degrees(wrap_angle(th + math.pi / 2))) <= 1.5
     assert t < 20.0
+
+
+def test_a_target_just_short_of_a_wall_is_reached_without_nosing_into_it() -> None:
+    """Seen in a generated building: 0.26 m from its door pose, facing the target with a
+    wall a few centimetres beyond the front's reach, the docker drove forwards into the
+    stop zone for ever. With the points in hand it drives the other way or turns first."""
+    fp = RobotConfig().footprint
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, -math.pi / 2 - 0.3)  # face -y (a door below), forwards nearer
+    wall_x = -(fp.front + 0.04)  # a wall 4 cm beyond the front of a chair at the goal facing -x
+    wall = np.array([[wall_x, y] for y in np.arange(-2.0, 2.0, 0.05)])
+    cmd = docker.step(0.26, 0.0, math.pi, obstacles=wall)  # facing -x, the target ahead
+    assert cmd.v <= 0.0  # never forwards into the wall
+    without = Docker(DOCK)
+    without.set_goal(0.0, 0.0, -math.pi / 2 - 0.3)
+    assert without.step(0.26, 0.0, math.pi).v > 0.0  # blind, it drove on
+
+
+def test_stall_watch_calls_a_leg_blocked_only_without_progress() -> None:
+    from services.controller.tracking import StallWatch
+
+    watch = StallWatch(after_s=15.0, progress_m=0.1)
+    dist, t = 5.0, 0.0
+    while t < 40.0:  # steady progress: never stalled
+        dist -= 0.3 * 0.04
+        assert not watch.update(dist, 0.04)
+        t += 0.04
+    stalled_at = None
+    for k in range(1000):  # wobbling on the spot for 40 s
+        if watch.update(dist + 0.05 * math.sin(k / 5), 0.04) and stalled_at is None:
+            stalled_at = k * 0.04
+    assert stalled_at is not None and 14.5 <= stalled_at <= 15.5
+    watch.reset()
+    assert not watch.update(dist, 0.04)
