@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint format docs bench scenarios clean
+.PHONY: demo test lint format docs bench scenarios campaign clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -32,6 +32,11 @@ format: $(STAMP)
 scenarios: $(STAMP)
 	$(VENV)/bin/wheelnav scenarios scenarios/*.yaml --reports scenario-reports
 
+# a randomized building campaign (docs/campaign.md); CAMPAIGN_ARGS to change its size
+CAMPAIGN_ARGS ?= --buildings 12 --seed 0 --missions 9
+campaign: $(STAMP)
+	$(VENV)/bin/wheelnav campaign $(CAMPAIGN_ARGS) --out campaign
+
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[bench]'
 	$(VENV)/bin/wheelnav bench planner
@@ -40,4 +45,4 @@ docs: $(STAMP)
 	$(PY) -m wheelnav.docs
 
 clean:
-	rm -rf $(VENV) demo-report.json scenario-reports
+	rm -rf $(VENV) demo-report.json scenario-reports campaign

@@ -113,28 +113,41 @@ class Planner:
             for p in points:
                 block_segment(lethal, fg.grid, p, p, self.radius)
             lethal[s] = lethal[g] = False
-        pre = None
+        pts = self._search(fg, lethal, s, g, start, goal, floor)
         if arrive_heading is not None and run_in_m > 0:
             pre = run_in_point(fg.grid, lethal, start, goal, arrive_heading, run_in_m)
-        end = g if pre is None else fg.grid.to_cell(*pre)
-        try:
-            cells = astar(
-                lethal, s, end, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks
-            )
-        except NoPathError as exc:
-            raise errors.NoPath(
-                f"no path from {_xy(start)} to {_xy(goal)} on floor {floor}: {exc}"
-            ) from None
-        corners = shorten(cells, lethal)
-        pts = fg.grid.to_world(corners)
-        pts[0], pts[-1] = start, goal if pre is None else pre
-        if pre is not None:
-            pts = np.vstack([pts, [goal]])
+            if pre is not None:
+                via = self._search(fg, lethal, s, fg.grid.to_cell(*pre), start, pre, floor)
+                last = via[-1] - via[-2] if len(via) > 1 else None
+                heading = np.array([math.cos(arrive_heading), math.sin(arrive_heading)])
+                if last is not None and float(last @ heading) >= -0.4 * np.linalg.norm(last):
+                    pts = np.vstack([via, [goal]])  # a turn of at most ~115 deg into it
         length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
         spacing = max(self.cfg.waypoint_spacing_m, length / self.cfg.max_waypoints)
         waypoints = densify(pts, spacing)
         v_ref = speed_profile(waypoints, self.cfg.cruise_speed, self.cfg.goal_speed_radius_m)
         return Plan(floor, waypoints, v_ref, length)
+
+    def _search(
+        self,
+        fg: _FloorGrid,
+        lethal: np.ndarray,
+        s: tuple[int, int],
+        g: tuple[int, int],
+        start: tuple[float, float],
+        goal: tuple[float, float],
+        floor: str,
+    ) -> np.ndarray:
+        """The corners (world, start and goal exact) of the A* path from cell s to g."""
+        try:
+            cells = astar(lethal, s, g, fg.cost if self.cfg.cost_band_m > 0 else None, fg.landmarks)
+        except NoPathError as exc:
+            raise errors.NoPath(
+                f"no path from {_xy(start)} to {_xy(goal)} on floor {floor}: {exc}"
+            ) from None
+        pts = fg.grid.to_world(shorten(cells, lethal))
+        pts[0], pts[-1] = start, goal
+        return pts
 
     def _cell(
         self,
