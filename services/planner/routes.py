@@ -111,7 +111,7 @@ class RoutePlanner:
     ) -> Route:
         """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed),
         treating the doors and lifts in ``avoid`` as unavailable for this request and the
-        points in ``blocked`` (x, y, floor) as obstacles."""
+        points in ``blocked`` (x, y, floor) as obstacles where a way round them exists."""
         if place:
             gx, gy, _theta, goal_floor = self.planner.resolve_place(place)
             goal = (gx, gy)
@@ -124,7 +124,15 @@ class RoutePlanner:
         try:
             for name in avoid:
                 self.set_door_blocked(name, True)
-            return self.route(start, start_floor, goal, goal_floor)
+            try:
+                return self.route(start, start_floor, goal, goal_floor)
+            except errors.NoPath:
+                if not self._points:
+                    raise
+                # what held the chair may be a closed door on the only way (its procedure
+                # opens it) or someone who moves on: the points are a hint, not a wall
+                self._points = {}
+                return self.route(start, start_floor, goal, goal_floor)
         finally:
             self.blocked_doors, self.unavailable_lifts = saved
             self._points = {}

@@ -123,3 +123,20 @@ def test_zone_tags_per_waypoint() -> None:
     assert first.zones[0] == "room" and first.zones[-1] == "door"
     assert "corridor" in corridor.zones
     assert route.legs[-1].zones[-1] == "goal"
+
+
+def test_points_that_wall_off_the_only_way_are_dropped_not_a_dead_end(
+    routes: RoutePlanner,
+) -> None:
+    """Seen in a generated building: held before a closed door in a vestibule, the chair
+    marked the door's leaf as blocking and the re-plan found no way at all. Points are a
+    hint: a way round them if there is one, else the way as if they were not there."""
+    door = next(d for d in SITE.doors if d.id == "door_ab")
+    (x1, y1), (x2, y2) = door.p1, door.p2
+    wall = [(x1 + (x2 - x1) * t, y1 + (y2 - y1) * t, "1") for t in np.linspace(0, 1, 21)]
+    route = routes.request((2.0, 2.7), "1", None, "", "room_b", blocked=wall)
+    assert [c.id for c in route.checkpoints] == ["door_ab"]
+    aside = [(3.5, 2.7, "1")]  # one point on the straight way: the route goes round it
+    around = routes.request((2.0, 2.7), "1", None, "", "room_b", blocked=aside)
+    first = around.legs[0].waypoints
+    assert np.min(np.hypot(first[:, 0] - 3.5, first[:, 1] - 2.7)) > 0.3
