@@ -35,7 +35,7 @@ import numpy as np
 
 from services.controller.command import Command
 from shared.config import ControllerConfig, Footprint, RobotConfig
-from shared.geometry import angle_between, wrap_angle
+from shared.geometry import angle_between, in_footprint, wrap_angle
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
 MIN_SPEED = 0.03  # m/s: below this the chair barely moves against its motor lag
@@ -191,10 +191,8 @@ class Docker:
         gx, gy, _ = self.goal
         c, s = math.cos(heading), math.sin(heading)
         dx, dy = pts[:, 0] - gx, pts[:, 1] - gy
-        ax, lat = c * dx + s * dy, -s * dx + c * dy
-        m = self.margin_m
-        inside = (ax >= -fp.rear - m) & (ax <= fp.front + m) & (np.abs(lat) <= fp.width / 2 + m)
-        return not bool(inside.any())
+        local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+        return not bool(in_footprint(local, fp.front, fp.rear, fp.width, self.margin_m).any())
 
     def _backwards_to(self, direction: float, dist: float) -> bool:
         """Drive backwards to a target in ``direction``? Within ``reverse_reach_m``, the

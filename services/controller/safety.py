@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
+from shared.geometry import in_footprint
 
 
 def stop_zone_hit(
@@ -49,11 +50,7 @@ def turn_sweep_hit(
     pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
 
     def inside(p: np.ndarray) -> np.ndarray:
-        return (
-            (p[:, 0] >= -fp.rear - m)
-            & (p[:, 0] <= fp.front + m)
-            & (np.abs(p[:, 1]) <= fp.width / 2 + m)
-        )
+        return in_footprint(p, fp.front, fp.rear, fp.width, m)
 
     pts = pts[~inside(pts)]
     for phi in np.linspace(angle_rad / 4, angle_rad, 4) * np.sign(w):

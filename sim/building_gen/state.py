@@ -54,9 +54,10 @@ class FloorState:
 
     # ---- transactions ------------------------------------------------------------------
 
-    def mark(self) -> tuple:
+    def _lists(self) -> tuple[list, ...]:
+        """Everything a transaction may append to, in a fixed order."""
         p = self.plan
-        lists = (
+        return (
             p.spaces,
             p.carves,
             p.doors,
@@ -69,25 +70,13 @@ class FloorState:
             self.keepouts,
             self.pockets,
         )
-        return tuple(len(x) for x in lists), dict(self.counters)
+
+    def mark(self) -> tuple:
+        return tuple(len(x) for x in self._lists()), dict(self.counters)
 
     def rollback(self, mark: tuple) -> None:
         sizes, counters = mark
-        p = self.plan
-        lists = (
-            p.spaces,
-            p.carves,
-            p.doors,
-            p.columns,
-            p.furniture,
-            p.places,
-            p.series,
-            self.free.carves,
-            self.free.obstacles,
-            self.keepouts,
-            self.pockets,
-        )
-        for lst, n in zip(lists, sizes, strict=True):
+        for lst, n in zip(self._lists(), sizes, strict=True):
             del lst[n:]
         self.counters = counters
 
