@@ -61,7 +61,7 @@ def test_lift_out_of_service_uses_the_other_lift() -> None:
     assert report["success"], (report["reason"], out[-2000:])
     assert report["collisions"] == 0
     fallbacks = [e for e in report["events"] if e["kind"] == "fallback"]
-    assert len(fallbacks) == 1 and "lift_b" in fallbacks[0]["detail"]
+    assert len(fallbacks) == 1 and "lift_a" in fallbacks[0]["detail"]
     assert "out of service" in fallbacks[0]["detail"]
 
 
@@ -69,10 +69,10 @@ def test_busy_lift_is_given_up_after_its_timeout_and_the_other_one_used() -> Non
     report, out = run("lift_busy")
     assert report["success"] and report["collisions"] == 0, (report["reason"], out[-2000:])
     assert report["fallbacks"] == [
-        "avoiding lift_b: lift lift_b did not come to floor 1 within 30 s"
+        "avoiding lift_a: lift lift_a did not come to floor 1 within 30 s"
     ]
     lifts = [(c["id"], c["result"]) for c in report["checkpoints"] if c["kind"] == "elevator"]
-    assert lifts == [("lift_b", "abandoned"), ("lift_a", "passed")]
+    assert lifts == [("lift_a", "abandoned"), ("lift_b", "passed")]
 
 
 def test_pedestrian_stepping_into_the_path_is_waited_for() -> None:
