@@ -82,7 +82,6 @@ class Docker:
         self.footprint = footprint
         self.margin_m = margin_m
         self._straight = False
-        self._points: np.ndarray | None = None
         self.goal: tuple[float, float, float] | None = None
         self.stage = "start"
         self._start_error = 0.0
@@ -116,7 +115,6 @@ class Docker:
     ) -> Command:
         """The command for pose (x, y, theta); zero when idle, arrived or the pose is stale.
         ``obstacles`` (N, 2, map frame) are what the move stage keeps the footprint off."""
-        self._points = obstacles
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
         lim = self.limits
@@ -137,7 +135,7 @@ class Docker:
             self.stage = "final" if dist <= lim.near_m else "move"
         if self.stage == "move":
             if dist > lim.position_tolerance_m:
-                moved = self._move(ex, ey, dist, theta)
+                moved = self._move(ex, ey, dist, theta, obstacles)
                 if moved is not None:
                     return Command(*moved, "following", progress, dist, 0.0)
                 self._straight = True  # boxed in both ways: turn first, then along
@@ -148,14 +146,16 @@ class Docker:
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         return Command(v, w, "following", progress, dist, 0.0)
 
-    def _move(self, ex: float, ey: float, dist: float, theta: float) -> tuple[float, float] | None:
+    def _move(
+        self, ex: float, ey: float, dist: float, theta: float, obstacles: np.ndarray | None
+    ) -> tuple[float, float] | None:
         """(v, w) of the move stage: face the target (or away from it), then drive; None
         when the footprint at the target holds a point whichever way it faces."""
         lim = self.limits
         direction = math.atan2(ey, ex)
         backwards = self._backwards_to(direction, dist)
-        if not self._fits(direction + (math.pi if backwards else 0.0)):
-            if not self._fits(direction + (0.0 if backwards else math.pi)):
+        if not self._fits(direction + (math.pi if backwards else 0.0), obstacles):
+            if not self._fits(direction + (0.0 if backwards else math.pi), obstacles):
                 return None
             backwards = self._backwards = not backwards
         bearing = wrap_angle(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
@@ -182,10 +182,10 @@ class Docker:
             return 0.0, w, False
         return 0.0, 0.0, True
 
-    def _fits(self, heading: float) -> bool:
+    def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
         """True if the footprint (grown by ``margin_m``) at the goal point facing
-        ``heading`` holds none of this cycle's points (always, without points)."""
-        pts, fp = self._points, self.footprint
+        ``heading`` holds none of ``pts`` (always, without points)."""
+        fp = self.footprint
         if pts is None or fp is None or len(pts) == 0:
             return True
         gx, gy, _ = self.goal
