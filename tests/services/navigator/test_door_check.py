@@ -201,3 +201,38 @@ def test_an_open_hinged_leaf_beside_the_way_is_not_in_the_doorway(side: int, off
         ]
     )
     assert lane_blocked(closing, pose, door, 0.0, 1.0, 0.375, 0.76, CHECK, width)
+
+
+def thick_leaf(
+    plane_x: float, width_m: float, side: int, thickness_m: float = 0.05
+) -> list[Segment]:
+    """A leaf open 90 deg, hinged at the door's left jamb, as a box ``thickness_m`` thick
+    centred on the jamb's line (as the simulator draws it): its face stands half its
+    thickness inside the opening."""
+    h, t = width_m / 2, thickness_m / 2
+    far = plane_x + side * width_m
+    return [
+        ((plane_x, h - t), (far, h - t)),
+        ((plane_x, h + t), (far, h + t)),
+        ((far, h - t), (far, h + t)),
+    ]
+
+
+@pytest.mark.parametrize("width", [0.85, 1.1])
+@pytest.mark.parametrize("side", [-1, 1])
+def test_a_thick_open_leaf_seen_from_a_slightly_wrong_pose_is_not_in_the_doorway(
+    width: float, side: int
+) -> None:
+    # failure mode 1 again, found by the campaign (b1.m01, a 1.10 m door): the leaf's face
+    # stands 2.5 cm inside the opening and the estimated pose is 3 cm off the true one
+    # towards it, so the leaf's face looked 0.495 m from the door's centre line, inside
+    # "half the width less the allowance" (0.50 m), though the chair passes 0.17 m clear.
+    plane = 1.76
+    walls = doorway(plane, width) + thick_leaf(plane, width, side)
+    pts = cast(walls, (0.0, 0.0))
+    estimated = (0.0, -0.03, 0.0)  # localisation 3 cm off, away from the hinge
+    for lead in (0.76, 1.2):
+        assert not lane_blocked(pts, estimated, (plane, 0.0), 0.0, 1.0, 0.375, lead, CHECK, width)
+    # a leaf swinging shut is still in the doorway
+    closing = cast(doorway(plane, width) + [hinged_leaf(plane, width, 60.0, side)], (0.0, 0.0))
+    assert lane_blocked(closing, estimated, (plane, 0.0), 0.0, 1.0, 0.375, 0.76, CHECK, width)
