@@ -330,7 +330,9 @@ class DoorCheckConfig:
     min_points: int = field(default=5, metadata=check(_positive))
     lane_margin_m: float = field(default=0.3, metadata=check(_non_negative))
     lane_min_points: int = field(default=3, metadata=check(_positive))
-    jamb_allowance_m: float = field(default=0.05, metadata=check(_non_negative))
+    # how far inside each jamb a point still counts as the jamb (or an open leaf's face,
+    # which stands half the leaf's thickness inside the opening), allowing for pose error
+    jamb_allowance_m: float = field(default=0.07, metadata=check(_non_negative))
 
 
 @dataclass

@@ -100,11 +100,13 @@ def lane_blocked(
     ``lane_margin_m``. A leaf swinging or sliding shut enters it; the jambs beside the
     chair do not. When the door's ``width_m`` is known, the last stretch before the plane
     (one door width, where a hinged leaf may stand open) is taken in the door's own frame:
-    there only points between the jambs (half the width less ``jamb_allowance_m`` from the
-    door's centre line) count, wherever the chair stands, so a jamb, a leaf open against
+    there only points within the chair's clearance half-width of the door's centre line
+    (the way the pass drives) and between the jambs (half the width less
+    ``jamb_allowance_m``) count, wherever the chair stands, so a jamb, a leaf open against
     its stop or a wall beside the doorway is never "in the doorway", even with the chair
-    off the centre line. ``lane_min_points`` points make it blocked. Once the leading
-    edge is past the door plane plus the margin there is nothing left to check (False).
+    or its pose estimate off the centre line. ``lane_min_points`` points make it blocked.
+    Once the leading edge is past the door plane plus the margin there is nothing left to
+    check (False).
     """
     if points is None or len(points) == 0:
         return False
@@ -127,5 +129,6 @@ def lane_blocked(
         before = along - (to_plane - margin)
         off = np.abs(across - lateral)
         near = before >= -(width_m + cfg.jamb_allowance_m)
-        inside = np.where(near, (off < free) & (along > lead_m) & (along <= to_plane), inside)
+        way = min(free, half_width_m)  # the chair passes along the door's centre line
+        inside = np.where(near, (off < way) & (along > lead_m) & (along <= to_plane), inside)
     return int(np.count_nonzero(inside)) >= cfg.lane_min_points
