@@ -478,11 +478,17 @@ class Event(Msg):
 @message("door_clearance")
 @dataclass
 class DoorClearance(Msg):
-    """The smallest clearance the simulator measured while the chair was in one opening."""
+    """The smallest clearance the simulator measured while the chair was in one opening:
+    what it was to (``nearest``: "wall", "door X", ...), where the chair stood then (true
+    pose [x, y, theta]) and the opening's clear width (``free_width_m``: less half a hinged
+    leaf's thickness, which stands in it open; 0: as ``width_m``)."""
 
     door_id: str
     width_m: float
     min_clearance_m: float
+    nearest: str = ""
+    at: list[float] = field(default_factory=list)
+    free_width_m: float = 0.0
 
 
 @message("sim_status")
@@ -497,3 +503,5 @@ class SimStatus(Msg):
     min_clearance_m: float
     min_clearance_away_m: float = 1e6  # away from every door opening (1e6: none seen yet)
     doors: list[DoorClearance] = field(default_factory=list)  # door openings passed so far
+    away_nearest: str = ""  # what the clearance away was to, and the true pose [x, y, theta]
+    away_at: list[float] = field(default_factory=list)

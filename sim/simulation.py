@@ -14,7 +14,7 @@ import pybullet as pb
 
 from shared.config import FleetConfig
 from shared.site import Site
-from sim.doors import DoorLeaf, LiftBody
+from sim.doors import LEAF_THICKNESS_M, DoorLeaf, LiftBody
 from sim.lidar3d import MultiRingLidar
 from sim.pedestrians import Pedestrian
 from sim.robot import Chair, ChairState, WheelOdometry
@@ -38,18 +38,36 @@ class Opening:
     ny: float
     reach: float
     side: float
+    free: float  # the clear width: less half a hinged leaf's thickness, which stands in it
+
+
+@dataclass
+class ClearanceSeen:
+    """The smallest clearance in one place (an opening, or away from them), what it was
+    to and where the chair stood (true pose x, y, theta)."""
+
+    width: float
+    clearance: float = math.inf
+    nearest: str = ""
+    at: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    free: float = 0.0
+
+    def see(self, clearance: float, nearest: str, at: tuple[float, float, float]) -> None:
+        if clearance < self.clearance:
+            self.clearance, self.nearest, self.at = clearance, nearest, at
 
 
 OPENING_MARGIN_M = 0.3  # the zone reaches this far past the chair's half length and the jambs
 
 
-def _openings(site: Site, half_length_m: float) -> dict[str, list[Opening]]:
-    """Every door opening per floor: the site's doors and each lift's car doors."""
-    segments = [(d.id, d.floor, d.p1, d.p2) for d in site.doors]
+def _openings(site: Site, half_length_m: float, hinged: set[str]) -> dict[str, list[Opening]]:
+    """Every door opening per floor: the site's doors (``hinged``: the ids whose leaf
+    swings) and each lift's car doors."""
+    segments = [(d.id, d.floor, d.p1, d.p2, d.id in hinged) for d in site.doors]
     for lift in getattr(site, "elevators", []):
-        segments += [(f"{lift.id}@{f}", f, *lift.doors[f]) for f in lift.floors]
+        segments += [(f"{lift.id}@{f}", f, *lift.doors[f], False) for f in lift.floors]
     out: dict[str, list[Opening]] = {}
-    for door_id, floor, (x1, y1), (x2, y2) in segments:
+    for door_id, floor, (x1, y1), (x2, y2), hinged in segments:
         width = math.hypot(x2 - x1, y2 - y1)
         if width <= 0:
             continue
@@ -64,6 +82,7 @@ def _openings(site: Site, half_length_m: float) -> dict[str, list[Opening]]:
                 ny,
                 half_length_m + OPENING_MARGIN_M,
                 width / 2 + OPENING_MARGIN_M,
+                width - (LEAF_THICKNESS_M / 2 if hinged else 0.0),
             )
         )
     return out
@@ -179,9 +198,10 @@ class Simulation:
         self.in_collision = False
         self.clearance = math.inf
         self.min_clearance = math.inf
-        self.min_clearance_away = math.inf  # away from every door opening
-        self.door_clearance: dict[str, tuple[float, float]] = {}  # id -> (width, min clearance)
-        self._openings = _openings(site, (fp.front + fp.rear) / 2)
+        self.away = ClearanceSeen(0.0)  # away from every door opening
+        self.door_clearance: dict[str, ClearanceSeen] = {}  # per opening, by id
+        hinged = {name for name, leaf in self.doors.items() if leaf.motion == "hinged"}
+        self._openings = _openings(site, (fp.front + fp.rear) / 2, hinged)
         self._place_body()
         self._measure()
         if self.in_collision:
@@ -285,10 +305,17 @@ class Simulation:
             s.x + self._body_offset * math.cos(s.theta), s.y + self._body_offset * math.sin(s.theta)
         )
         if opening is None:
-            self.min_clearance_away = min(self.min_clearance_away, best)
+            seen = self.away
         else:
-            width, seen = self.door_clearance.get(opening.id, (opening.width, math.inf))
-            self.door_clearance[opening.id] = (width, min(seen, best))
+            seen = self.door_clearance.setdefault(
+                opening.id, ClearanceSeen(opening.width, free=opening.free)
+            )
+        seen.see(best, self.nearest, (s.x, s.y, s.theta))
+
+    @property
+    def min_clearance_away(self) -> float:
+        """The smallest clearance seen away from every door opening (inf: none yet)."""
+        return self.away.clearance
 
     def _opening_at(self, x: float, y: float) -> Opening | None:
         """The door opening (site door or car door on the chair's floor) whose zone holds

@@ -161,9 +161,18 @@ def _run(
                     _finite(sim.min_clearance),
                     _finite(sim.min_clearance_away),
                     [
-                        DoorClearance(door_id, width, _finite(seen))
-                        for door_id, (width, seen) in sim.door_clearance.items()
+                        DoorClearance(
+                            door_id,
+                            seen.width,
+                            _finite(seen.clearance),
+                            seen.nearest,
+                            [round(v, 3) for v in seen.at],
+                            seen.free,
+                        )
+                        for door_id, seen in sim.door_clearance.items()
                     ],
+                    away_nearest=sim.away.nearest,
+                    away_at=[round(v, 3) for v in sim.away.at],
                 ),
             )
         if result.tick % PROFILE_EVERY == 0:

@@ -103,3 +103,18 @@ def test_same_seed_same_run() -> None:
         return sim.state.x, sim.state.y, r.scan.tobytes() if r.scan is not None else None
 
     assert run() == run()
+
+
+def test_clearance_in_an_opening_and_away_says_to_what_and_where() -> None:
+    # the chair's footprint centre in door_ab (1.0 m at x = 6.2): measured for the door;
+    # a sliding leaf leaves the clear width whole, an open hinged one takes half its thickness
+    assert make(x=5.9, y=2.6).door_clearance["door_ab"].free == 1.0
+    sim = make(x=5.9, y=2.6, **{"building.doors": "{door_ab: {motion: hinged, start_open: true}}"})
+    seen = sim.door_clearance["door_ab"]
+    assert seen.free == pytest.approx(1.0 - 0.025) and seen.nearest in ("wall", "door door_ab")
+    assert seen.at == pytest.approx((5.9, 2.6, 0.0))
+    assert 0.0 < seen.clearance < (1.0 - 0.65) / 2  # 0.1 m off the centre line
+    assert sim.min_clearance_away == math.inf  # nothing measured away from the doors yet
+    away = make(x=2.0, y=2.7)
+    assert away.away.nearest == "wall" and away.away.at == pytest.approx((2.0, 2.7, 0.0))
+    assert away.min_clearance_away == away.away.clearance < 2.0

@@ -6,7 +6,13 @@ from pathlib import Path
 
 from shared.config import FleetConfig
 from wheelnav.campaign.results import ResultStore, door_requirement_m, judge
-from wheelnav.campaign.summary import figures, format_failures, format_figures, format_table
+from wheelnav.campaign.summary import (
+    figures,
+    format_failures,
+    format_figures,
+    format_table,
+    format_tight,
+)
 from wheelnav.mission.scenario import Scenario
 
 
@@ -80,3 +86,30 @@ def test_rows_survive_a_stop(tmp_path: Path) -> None:
     assert store.get("b1.m0")["as_expected"]
     (tmp_path / "b1.m1.json").write_text("{half")  # a damaged row runs again
     assert store.get("b1.m1") is None
+
+
+def test_an_open_hinged_leaf_takes_from_the_clear_width_and_tight_spots_say_where() -> None:
+    # a 0.90 m hinged door with its leaf open has 0.875 m of clear width: needs 0.0825 m
+    door = {
+        "door": "d1",
+        "width_m": 0.9,
+        "free_width_m": 0.875,
+        "min_clearance_m": 0.09,
+        "nearest": "door d1",
+        "at": [2.0, 3.0, 1.5708],
+    }
+    row = judge(
+        scenario(),
+        report(
+            True,
+            door_clearance=[door],
+            min_clearance_away_m=0.03,
+            min_clearance_away_nearest="wall",
+            min_clearance_away_at=[5.0, 1.25, 0.0],
+        ),
+    )
+    assert row["door_clearance"][0]["required_m"] == round(door_requirement_m(0.875, 0.65), 4)
+    assert row["tight_doors"] == [] and not row["clearance_ok"]  # 3 cm from a wall
+    text = format_tight([row])
+    assert "0.030 m away from doors, to wall with the chair at (5.00, 1.25, 0 deg)" in text
+    assert format_tight([judge(scenario(), report(True))]) == "every clearance within its limit"

@@ -20,7 +20,8 @@ DOOR_SLACK_M = 0.03  # inside an opening: (free width - chair width) / 2 less th
 
 
 def door_requirement_m(width_m: float, chair_width_m: float) -> float:
-    """The least clearance accepted inside an opening ``width_m`` wide."""
+    """The least clearance accepted inside an opening ``width_m`` wide (its clear width:
+    a hinged leaf standing open takes half its thickness from it)."""
     return (width_m - chair_width_m) / 2 - DOOR_SLACK_M
 
 
@@ -41,7 +42,9 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
     doors = [
         {
             **d,
-            "required_m": round(door_requirement_m(d["width_m"], chair_w), 4),
+            "required_m": round(
+                door_requirement_m(d.get("free_width_m") or d["width_m"], chair_w), 4
+            ),
         }
         for d in report.get("door_clearance", [])
     ]
@@ -64,6 +67,8 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
         "as_expected": as_expected,
         "collisions": report.get("collisions", 0),
         "min_clearance_away_m": away,
+        "min_clearance_away_nearest": report.get("min_clearance_away_nearest", ""),
+        "min_clearance_away_at": report.get("min_clearance_away_at", []),
         "clearance_ok": (away is None or away >= AWAY_CLEARANCE_M) and not tight_doors,
         "tight_doors": tight_doors,
         "door_clearance": doors,

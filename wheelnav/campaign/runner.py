@@ -24,6 +24,7 @@ from wheelnav.campaign.summary import (
     format_figures,
     format_geometry,
     format_table,
+    format_tight,
 )
 from wheelnav.mission.run import MissionRun
 from wheelnav.mission.scenario import load_scenario
@@ -115,6 +116,7 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
     out.write(format_table(rows) + "\n\n")
     out.write(format_figures(result["figures"]) + "\n\n")
     out.write(format_failures(rows) + "\n")
+    out.write(format_tight(rows) + "\n")
     (spec.out / "campaign.json").write_text(json.dumps(result, indent=1, default=str))
     return result
 

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from typing import Any
 
 import numpy as np
+
+from wheelnav.campaign.results import AWAY_CLEARANCE_M
 
 
 def figures(rows: list[dict[str, Any]], planned: int) -> dict[str, Any]:
@@ -77,6 +80,35 @@ def format_figures(f: dict[str, Any]) -> str:
             f"{_num(f['time_ratio_p90'], '.2f')}",
         ]
     )
+
+
+def _where(nearest: str, at: list[float]) -> str:
+    if len(at) < 3:
+        return f"to {nearest or '?'}"
+    pose = f"({at[0]:.2f}, {at[1]:.2f}, {math.degrees(at[2]):.0f} deg)"
+    return f"to {nearest or '?'} with the chair at {pose}"
+
+
+def format_tight(rows: list[dict[str, Any]]) -> str:
+    """Every clearance below its limit: how close, to what, and where the chair stood."""
+    lines = []
+    for r in rows:
+        away = r.get("min_clearance_away_m")
+        if away is not None and away < AWAY_CLEARANCE_M:
+            where = _where(
+                r.get("min_clearance_away_nearest", ""), r.get("min_clearance_away_at", [])
+            )
+            lines.append(f"  {r['mission']}: {away:.3f} m away from doors, {where}")
+        for d in r.get("door_clearance", []):
+            if d["door"] in r.get("tight_doors", []):
+                where = _where(d.get("nearest", ""), d.get("at", []))
+                lines.append(
+                    f"  {r['mission']}: {d['min_clearance_m']:.3f} m in {d['door']} "
+                    f"(needs {d['required_m']:.3f}), {where}"
+                )
+    if not lines:
+        return "every clearance within its limit"
+    return "\n".join([f"{len(lines)} clearance(s) below a limit:", *lines])
 
 
 def format_failures(rows: list[dict[str, Any]]) -> str:

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from shared.geometry import wrap_angle
-from shared.messages import TERMINAL_STATES, NavStatus, RouteReply, SimStatus
+from shared.messages import TERMINAL_STATES, DoorClearance, NavStatus, RouteReply, SimStatus
 from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
 
 
@@ -37,7 +37,9 @@ class Recorder:
     collisions: int = 0
     min_clearance_m: float = math.inf
     min_clearance_away_m: float = math.inf
-    door_clearance: dict[str, tuple[float, float]] = field(default_factory=dict)
+    away_nearest: str = ""
+    away_at: list[float] = field(default_factory=list)
+    door_clearance: dict[str, DoorClearance] = field(default_factory=dict)
     planned_length_m: float | None = None  # of the route driven last
     path_length_m: float = 0.0
     phases: list[Phase] = field(default_factory=list)
@@ -73,11 +75,13 @@ class Recorder:
             return  # the report covers the mission, not the shutdown after it
         self.collisions = max(self.collisions, msg.collisions)
         self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
-        if msg.min_clearance_away_m < 1e6:
-            self.min_clearance_away_m = min(self.min_clearance_away_m, msg.min_clearance_away_m)
+        if msg.min_clearance_away_m < min(1e6, self.min_clearance_away_m):
+            self.min_clearance_away_m = msg.min_clearance_away_m
+            self.away_nearest, self.away_at = msg.away_nearest, list(msg.away_at)
         for d in msg.doors:
-            seen = self.door_clearance.get(d.door_id, (d.width_m, math.inf))[1]
-            self.door_clearance[d.door_id] = (d.width_m, min(seen, d.min_clearance_m))
+            seen = self.door_clearance.get(d.door_id)
+            if seen is None or d.min_clearance_m < seen.min_clearance_m:
+                self.door_clearance[d.door_id] = d
 
     def on_route(self, route: RouteReply) -> None:
         """A route about to be driven: its planned length (legs plus door passes)."""
@@ -146,9 +150,18 @@ class Recorder:
             if math.isfinite(self.min_clearance_m)
             else None,
             "min_clearance_away_m": _rounded(self.min_clearance_away_m),
+            "min_clearance_away_nearest": self.away_nearest,
+            "min_clearance_away_at": self.away_at,
             "door_clearance": [
-                {"door": door, "width_m": round(w, 3), "min_clearance_m": _rounded(c)}
-                for door, (w, c) in self.door_clearance.items()
+                {
+                    "door": door,
+                    "width_m": round(d.width_m, 3),
+                    "min_clearance_m": _rounded(d.min_clearance_m),
+                    "free_width_m": round(d.free_width_m or d.width_m, 3),
+                    "nearest": d.nearest,
+                    "at": list(d.at),
+                }
+                for door, d in self.door_clearance.items()
             ],
             "planned_length_m": None
             if self.planned_length_m is None
