@@ -27,8 +27,9 @@ CHAIR_HEIGHT_M = 1.2
 
 @dataclass(frozen=True)
 class Opening:
-    """A door opening's zone, where clearance is measured apart from the rest: the footprint
-    centre within ``reach`` of the door plane and ``side`` of the door's middle."""
+    """A door opening's zone, where clearance is measured apart from the rest: some part
+    of the footprint within ``reach`` of the door plane (in the doorway itself, the wall's
+    thickness) and the footprint centre within ``side`` of the door's middle."""
 
     id: str
     width: float
@@ -57,10 +58,12 @@ class ClearanceSeen:
             self.clearance, self.nearest, self.at = clearance, nearest, at
 
 
-OPENING_MARGIN_M = 0.3  # the zone reaches this far past the chair's half length and the jambs
+# the doorway: this far either side of the door plane (half a 0.2 m wall and a frame) and
+# past the jambs; a chair turning before a door is not in it, its clearance counts as away
+OPENING_MARGIN_M = 0.15
 
 
-def _openings(site: Site, half_length_m: float, hinged: set[str]) -> dict[str, list[Opening]]:
+def _openings(site: Site, hinged: set[str]) -> dict[str, list[Opening]]:
     """Every door opening per floor: the site's doors (``hinged``: the ids whose leaf
     swings) and each lift's car doors."""
     segments = [(d.id, d.floor, d.p1, d.p2, d.id in hinged) for d in site.doors]
@@ -80,7 +83,7 @@ def _openings(site: Site, half_length_m: float, hinged: set[str]) -> dict[str, l
                 (y1 + y2) / 2,
                 nx,
                 ny,
-                half_length_m + OPENING_MARGIN_M,
+                OPENING_MARGIN_M,
                 width / 2 + OPENING_MARGIN_M,
                 width - (LEAF_THICKNESS_M / 2 if hinged else 0.0),
             )
@@ -201,7 +204,15 @@ class Simulation:
         self.away = ClearanceSeen(0.0)  # away from every door opening
         self.door_clearance: dict[str, ClearanceSeen] = {}  # per opening, by id
         hinged = {name for name, leaf in self.doors.items() if leaf.motion == "hinged"}
-        self._openings = _openings(site, (fp.front + fp.rear) / 2, hinged)
+        self._openings = _openings(site, hinged)
+        self._corners = np.array(
+            [
+                (fp.front, fp.width / 2),
+                (fp.front, -fp.width / 2),
+                (-fp.rear, -fp.width / 2),
+                (-fp.rear, fp.width / 2),
+            ]
+        )
         self._place_body()
         self._measure()
         if self.in_collision:
@@ -301,9 +312,7 @@ class Simulation:
         self.min_clearance = min(self.min_clearance, best)
         self.in_collision = best <= 0.0
         s = self.state
-        opening = self._opening_at(
-            s.x + self._body_offset * math.cos(s.theta), s.y + self._body_offset * math.sin(s.theta)
-        )
+        opening = self._opening_at(s.x, s.y, s.theta)
         if opening is None:
             seen = self.away
         else:
@@ -317,12 +326,18 @@ class Simulation:
         """The smallest clearance seen away from every door opening (inf: none yet)."""
         return self.away.clearance
 
-    def _opening_at(self, x: float, y: float) -> Opening | None:
-        """The door opening (site door or car door on the chair's floor) whose zone holds
-        the footprint centre (x, y), if any."""
+    def _opening_at(self, x: float, y: float, theta: float) -> Opening | None:
+        """The door opening (site door or car door on the chair's floor) whose zone the
+        footprint at pose (x, y, theta) is in, if any."""
+        c, s = math.cos(theta), math.sin(theta)
+        px = x + self._corners[:, 0] * c - self._corners[:, 1] * s
+        py = y + self._corners[:, 0] * s + self._corners[:, 1] * c
+        mx, my = px.mean(), py.mean()
         for o in self._openings.get(self.floor, ()):
-            dx, dy = x - o.cx, y - o.cy
-            if abs(dx * o.nx + dy * o.ny) <= o.reach and abs(dx * o.ny - dy * o.nx) <= o.side:
+            along = (px - o.cx) * o.nx + (py - o.cy) * o.ny
+            if along.min() > o.reach or along.max() < -o.reach:
+                continue
+            if abs((mx - o.cx) * o.ny - (my - o.cy) * o.nx) <= o.side:
                 return o
         return None
 
