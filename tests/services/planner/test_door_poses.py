@@ -114,3 +114,25 @@ def test_approach_from_a_corridor_keeps_the_rear_off_the_far_wall(
     fp = ROBOT.footprint
     assert strip_free(site, cp.approach, 0.0, fp.rear)
     assert cp.approach[1] - 3.0 >= fp.front  # the front stops short of the door plane
+
+
+@pytest.mark.parametrize("width", [0.80, 0.85])
+@pytest.mark.parametrize("y0", [2.0, 2.0125, 2.03])
+def test_a_narrow_door_in_open_space_gets_the_preferred_poses(
+    tmp_path: Path, width: float, y0: float
+) -> None:
+    # found by the campaign (b1.m07, a 0.85 m door): the strip the free depth is measured
+    # in is as wide as the chair's clearance (0.75 m) and, in a narrow doorway, touched
+    # the jambs' cells, so the depth was 0 on both sides: the approach fell to its least
+    # (front 5 cm short of the plane, beside the open leaf) and the pass ended with the
+    # rear barely out of the doorway, in rooms 4 m deep. The map's opening is a cell
+    # narrower than the site's door, as a drawing rasterised at 5 cm may well be.
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5), (4.9, 0, 5.1, 5)]
+    gaps = [(4.9, y0 + 0.05, 5.1, y0 + width)]
+    site = make_site(tmp_path, walls, gaps, [("d", (5.0, y0), (5.0, y0 + width))], (10, 5))
+    route = routes_for(site).route((1.5, 2.5), "1", (8.5, 2.5), "1")
+    (cp,) = route.checkpoints
+    cfg = PlannerConfig()
+    assert 5.0 - cp.approach[0] == pytest.approx(cfg.door_standoff_m, abs=0.06)
+    assert cp.exit[0] - 5.0 == pytest.approx(cfg.door_exit_m, abs=0.06)
