@@ -41,12 +41,18 @@ def free_depth(
     direction: np.ndarray,
     half_width_m: float,
     max_m: float,
+    doorway: tuple[float, float] = (0.0, 0.0),
 ) -> float:
     """How far from ``centre`` along unit ``direction`` a strip ``half_width_m`` each side
-    stays free on ``occ`` (row 0 at ``origin``'s y); ``max_m`` if it does all the way."""
+    stays free on ``occ`` (row 0 at ``origin``'s y); ``max_m`` if it does all the way.
+
+    ``doorway`` (half width, depth): for its first ``depth`` metres the strip is at most
+    that half width, so a doorway narrower than the strip, or whose jambs the map draws a
+    cell or two into the opening, is not a wall."""
     step = resolution / 2
     along = np.arange(step, max_m + step, step)
-    across = np.arange(-half_width_m, half_width_m + 1e-9, step)
+    edge = half_width_m - 1e-6  # a strip that touches a cell's edge does not enter it
+    across = np.append(np.arange(-edge, edge, step), edge)
     side = np.array([-direction[1], direction[0]])
     pts = (
         centre[None, None, :]
@@ -57,6 +63,8 @@ def free_depth(
     rows = np.floor((pts[..., 1] - origin[1]) / resolution).astype(int)
     outside = (rows < 0) | (cols < 0) | (rows >= occ.shape[0]) | (cols >= occ.shape[1])
     hit = outside | occ[np.clip(rows, 0, occ.shape[0] - 1), np.clip(cols, 0, occ.shape[1] - 1)]
+    inner_half, inner_depth = doorway
+    hit &= ~((along[:, None] <= inner_depth) & (np.abs(across)[None, :] > inner_half))
     blocked = np.flatnonzero(hit.any(axis=1))
     return float(along[blocked[0]] - step) if len(blocked) else float(max_m)
 

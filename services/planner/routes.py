@@ -36,6 +36,8 @@ from shared.site import Door, Site
 Pose = tuple[float, float, float]
 Segment = tuple[tuple[float, float], tuple[float, float]]
 
+DOORWAY_DEPTH_M = 0.3  # how far past the door plane a doorway's jambs and frame may reach
+
 
 @dataclass
 class Checkpoint:
@@ -311,9 +313,13 @@ class RoutePlanner:
         reach = max(self.cfg.door_standoff_m, self.cfg.door_exit_m) + fp.front + fp.rear + 1.0
         origin = (grid.origin[0], grid.origin[1])
 
+        # through the doorway (a wall's thickness and a frame) the strip keeps off the
+        # jambs, which a map rasterised at its resolution may draw a cell or two inside
+        doorway = (width / 2 - 2 * grid.resolution, DOORWAY_DEPTH_M)
+
         def depth(direction: np.ndarray) -> float:
             return free_depth(
-                occ, grid.resolution, origin, centre, direction, room.half_width_m, reach
+                occ, grid.resolution, origin, centre, direction, room.half_width_m, reach, doorway
             )
 
         swings_left = door.swing == "left"
