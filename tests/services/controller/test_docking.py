@@ -131,3 +131,15 @@ def test_stall_watch_calls_a_leg_blocked_only_without_progress() -> None:
     assert stalled_at is not None and 14.5 <= stalled_at <= 15.5
     watch.reset()
     assert not watch.update(dist, 0.04)
+
+
+def test_near_the_target_it_does_not_spin_to_face_it() -> None:
+    # found by the campaign (b1.m04): stopped by the guard 6 cm short of a target before a
+    # door beside a wall, the move stage turned on the spot to face it, then round to back
+    # up to it, for 20 s. Within near_m it hands over to the final stage instead.
+    docker = Docker(DOCK)
+    docker.set_goal(0.0, 0.0, math.pi / 2)
+    docker.step(0.0, -0.4, math.radians(70))  # a move from 0.4 m
+    cmd = docker.step(0.05, -0.03, math.radians(64))  # 6 cm off, the target 30 deg aside
+    assert cmd.v == 0.0 and cmd.w > 0  # turning to the goal heading (90 deg), not away
+    assert docker.stage == "final"
