@@ -10,7 +10,8 @@ lag. Stages:
   towards the target, or away from it to back up to it when it lies within
   ``reverse_reach_m`` and backing up leaves the chair nearer the goal heading (a target
   behind a chair facing the door; a pose across a corridor facing the other way), then
-  drive while steering.
+  drive while steering. Within ``near_m`` it no longer turns on the spot to face the
+  target: with the target off to a side it hands over to the final stage.
 * ``final``: turn on the spot to the goal heading, then drive out the error along it.
   What is left across the heading is under the tolerance (or ``near_m``, when the
   manoeuvre started that close): turning away to remove it would cost two more turns
@@ -136,9 +137,9 @@ class Docker:
         if self.stage == "move":
             if dist > lim.position_tolerance_m:
                 moved = self._move(ex, ey, dist, theta, obstacles)
-                if moved is not None:
+                if isinstance(moved, tuple):
                     return Command(*moved, "following", progress, dist, 0.0)
-                self._straight = True  # boxed in both ways: turn first, then along
+                self._straight = moved is None  # boxed in both ways: turn first, then along
             self.stage = "final"
         v, w, done = self._final(ex, ey, heading_err, gth)
         if done:
@@ -148,9 +149,12 @@ class Docker:
 
     def _move(
         self, ex: float, ey: float, dist: float, theta: float, obstacles: np.ndarray | None
-    ) -> tuple[float, float] | None:
+    ) -> tuple[float, float] | str | None:
         """(v, w) of the move stage: face the target (or away from it), then drive; None
-        when the footprint at the target holds a point whichever way it faces."""
+        when the footprint at the target holds a point whichever way it faces; ``"near"``
+        when the target is within ``near_m`` but off to a side (a stop short of a wall, or
+        pose noise): a turn on the spot to face a target a few centimetres away is worse
+        than the final stage's turn to the goal heading and drive along it."""
         lim = self.limits
         direction = math.atan2(ey, ex)
         backwards = self._backwards_to(direction, dist)
@@ -161,6 +165,8 @@ class Docker:
         bearing = wrap_angle(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
         w = max(-lim.max_turn, min(lim.max_turn, lim.turn_gain * bearing))
         if abs(bearing) > ALIGN_RAD:
+            if dist <= lim.near_m:
+                return "near"
             return 0.0, math.copysign(max(MIN_TURN, abs(w)), w)
         v = self._speed(dist) * math.cos(bearing)
         return (-v if backwards else v), w
