@@ -250,6 +250,37 @@ def test_a_short_leg_is_left_to_position_correction() -> None:
     assert fleet.sent[-1].path_id == "Correct d1 #1"
 
 
+def test_doors_in_series_are_one_passage_the_room_between_docked_not_followed() -> None:
+    # campaign b0.m03: an inner and an outer door 2.2 m apart, their centre lines 1.3 m
+    # apart; from the outer door's exit the path follower could not turn in the room
+    # between ("blocked" at once, then three recoveries backing into the doorway). The
+    # short straight leg between the two doors is docked instead: turn, drive, turn.
+    blackboard()
+    fleet = ScriptedFleet(None)
+    outer = door(door_id="outer")
+    inner = Checkpoint(
+        "door", "inner", "1", Pose2D(4.5, 1.3, 0, "1"), Pose2D(6.7, 1.3, 0, "1"), 2.2, "manual", 1.0
+    )
+    between = leg("r.1", (3.2, 0.0), (4.5, 1.3))  # 1.84 m, straight
+    after = leg("r.2", (6.7, 1.3), (9.0, 1.3))
+    tree = route_tree(
+        RouteReply(True, leg("r"), legs=[leg("r.0"), between, after], checkpoints=[outer, inner]),
+        fleet,
+    )
+    tree.tick()  # leg 0, then the outer door's correct and turn
+    for _ in range(2):
+        fleet.arrive()
+        tree.tick()
+    fleet.arrive()
+    fleet.doors["outer"] = DoorMode.OPEN
+    for _ in range(3):
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.door.outer"
+    fleet.x = 3.2 - 0.01  # the pass is done
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Correct inner #1", fleet.sent[-1].path_id
+
+
 def lift_at(floor: str, session: str = "s1", mode: int = 2) -> LiftState:
     return LiftState(
         0.0, "lift_a", ["1", "2"], floor, floor, LiftDoor.OPEN, LiftMotion.STOPPED, mode, session
