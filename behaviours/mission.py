@@ -170,8 +170,11 @@ def _pass_timeout(distance_m: float, speed: float) -> float:
     return max(10.0, 4 * distance_m / speed)
 
 
-def _correct(cp, name: str, p: EntryParams, clock, record) -> py_trees.behaviour.Behaviour:
-    """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances."""
+def _correct(
+    cp, name: str, p: EntryParams, clock, record, reach_m: float = 0.0
+) -> py_trees.behaviour.Behaviour:
+    """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances;
+    ``reach_m``: the leg it docks instead of following, whose drive adds to the limit."""
     a, nav = cp.approach, p.nav
     dock = DockAt(
         f"Correct {cp.id}",
@@ -185,10 +188,13 @@ def _correct(cp, name: str, p: EntryParams, clock, record) -> py_trees.behaviour
         nav.correction_attempts,
         nav.correction_stall_s,
     )
-    return Timeout(name, dock, nav.correction_timeout_s, clock, record)
+    limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
+    return Timeout(name, dock, limit, clock, record)
 
 
-def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.behaviour.Behaviour:
+def _door_steps(
+    cp, route_id: str, p: EntryParams, clock, record, reach_m: float = 0.0
+) -> py_trees.behaviour.Behaviour:
     """The seed's door entry: correct, turn to the exit, verify open, pass, done."""
     nav = p.nav
     a, e = cp.approach, cp.exit
@@ -207,7 +213,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
         face=(e.x, e.y),
     )
     steps: list[py_trees.behaviour.Behaviour] = [
-        _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
+        _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m),
         Timeout(f"Phase 1 {cp.id}", turn, nav.correction_timeout_s, clock, record),
     ]
     building = cp.controller  # a door without a controller is verified by LiDAR alone
@@ -270,7 +276,7 @@ def _door_steps(cp, route_id: str, p: EntryParams, clock, record) -> py_trees.be
 
 
 def _elevator_steps(
-    cp, route_id: str, p: EntryParams, clock, record
+    cp, route_id: str, p: EntryParams, clock, record, reach_m: float = 0.0
 ) -> py_trees.behaviour.Behaviour:
     """Call the car, correct, verify its door open, drive in, ride, switch floor, back out
     (LiDAR behind and lift state agreeing), release: the seed's phases on the lift protocol."""
@@ -315,7 +321,7 @@ def _elevator_steps(
     )
     steps = [
         RequestLift(cp.id, cp.floor),
-        _correct(cp, f"Phase 0 {cp.id}", p, clock, record),
+        _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m),
         Timeout(
             f"Arrive {cp.id}",
             WaitForLift(cp.id, cp.floor, door, nav.door_scans, door_width_m=cp.width_m),
@@ -372,6 +378,24 @@ def _leg_length(leg: Path) -> float:
     return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()) if len(pts) > 1 else 0.0
 
 
+STRAIGHT = 1.15  # a leg at most this much longer than the line between its ends is straight
+
+
+def _docked_instead(leg: Path, after_door: bool, nav) -> float:
+    """The length of ``leg`` if it is left to the next checkpoint's position correction,
+    else 0: a short one (``correction_reach_m``), or the room between two doors in series
+    (after a door, straight and at most ``series_reach_m``; the path follower cannot turn
+    in it, the correction's turn, drive and turn can)."""
+    length = _leg_length(leg)
+    if length < nav.correction_reach_m:
+        return max(length, 1e-3)
+    pts = np.asarray(leg.waypoints, float)
+    line = float(np.linalg.norm(pts[-1] - pts[0])) if len(pts) > 1 else 0.0
+    if after_door and length <= nav.series_reach_m and length <= STRAIGHT * line:
+        return length
+    return 0.0
+
+
 def create_route_tree(
     route: RouteReply, clock: Callable[[], float], params: EntryParams
 ) -> py_trees.behaviour.Behaviour:
@@ -379,7 +403,8 @@ def create_route_tree(
 
     A leg shorter than ``navigator.correction_reach_m`` that ends at a checkpoint is left
     to that checkpoint's position correction (the seed's Phase 0 tests start 0.5 m from
-    the approach pose, sometimes past it: the chair backs up rather than turning round).
+    the approach pose, sometimes past it: the chair backs up rather than turning round),
+    and so is the room between two doors in series (:func:`_docked_instead`).
     """
     record = _timeouts()
     nav = params.nav
@@ -387,15 +412,17 @@ def create_route_tree(
     steps: list[py_trees.behaviour.Behaviour] = []
     for i, leg in enumerate(route.legs):
         cp = route.checkpoints[i] if i < len(route.checkpoints) else None
-        if cp is None or _leg_length(leg) >= nav.correction_reach_m:
+        after_door = i > 0 and route.checkpoints[i - 1].kind == "door"
+        docked = _docked_instead(leg, after_door, nav) if cp is not None else 0.0
+        if not docked:
             follow = FollowPath(leg, f"Follow leg {i}")
             steps.append(Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record))
         if cp is None:
             continue
         if cp.kind == "door":
-            steps.append(_door_steps(cp, route_id, params, clock, record))
+            steps.append(_door_steps(cp, route_id, params, clock, record, docked))
         else:
-            steps.append(_elevator_steps(cp, route_id, params, clock, record))
+            steps.append(_elevator_steps(cp, route_id, params, clock, record, docked))
     drive = py_trees.composites.Sequence(DRIVE, memory=True, children=steps)
     safety = SafetyGate(
         "Safety",

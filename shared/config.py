@@ -361,6 +361,9 @@ class NavigatorConfig:
     correction_attempts: int = field(default=3, metadata=check(_positive))
     correction_stall_s: float = field(default=4.0, metadata=check(_positive))
     correction_reach_m: float = field(default=1.0, metadata=check(_non_negative))
+    # doors in series: a nearly straight leg from a door's exit to the next checkpoint no
+    # longer than this is docked (turn, drive, turn), as one passage with both doors
+    series_reach_m: float = field(default=2.5, metadata=check(_non_negative))
     idle_motion: bool = True
     idle_speed: float = field(default=0.05, metadata=check(_positive))
     idle_amplitude_m: float = field(default=0.12, metadata=check(_positive))
