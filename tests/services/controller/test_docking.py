@@ -143,3 +143,21 @@ def test_near_the_target_it_does_not_spin_to_face_it() -> None:
     cmd = docker.step(0.05, -0.03, math.radians(64))  # 6 cm off, the target 30 deg aside
     assert cmd.v == 0.0 and cmd.w > 0  # turning to the goal heading (90 deg), not away
     assert docker.stage == "final"
+
+
+def test_a_turn_on_the_spot_goes_the_other_way_round_when_a_corner_would_sweep_a_wall() -> None:
+    # campaign b0.m03: in the small room between two doors in series, the turn the short
+    # way swung the rear corner into the open leaf beside it and the guard held it for ever
+    from shared.config import RobotConfig as Robot
+
+    fp = Robot().footprint
+    wall = np.array([[-0.45, y] for y in np.arange(0.05, 0.5, 0.02)])  # behind, on the left
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, math.pi / 2)  # a quarter turn left, on the spot
+    cmd = docker.step(0.0, 0.0, 0.0, obstacles=wall)
+    # turning left, the rear-left corner (0.35 back, 0.325 aside) swings into it: go right
+    turned = docker.step(0.0, 0.0, 0.0, obstacles=wall)
+    assert cmd.w < 0 and turned.w < 0
+    clear = Docker(DOCK, fp, 0.05)
+    clear.set_goal(0.0, 0.0, math.pi / 2)
+    assert clear.step(0.0, 0.0, 0.0, obstacles=np.zeros((0, 2))).w > 0  # the short way
