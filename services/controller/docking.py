@@ -43,6 +43,7 @@ MIN_SPEED = 0.03  # m/s: below this the chair barely moves against its motor lag
 MIN_TURN = 0.08  # rad/s
 LEAVE_FACTOR = 2.0  # the final stage starts over if the error grows past this x near_m
 SWITCH_RAD = math.radians(20)  # hysteresis of the forwards / backwards choice
+SWEEP_RAD = math.radians(15)  # a turn on the spot looks this far ahead for its corners
 
 
 @dataclass
@@ -88,6 +89,9 @@ class Docker:
         self._start_error = 0.0
         self._arrived = False
         self._backwards: bool | None = None
+        self._turn_sign = 0.0  # a turn on the spot the long way round, kept until aligned
+        self._pose = (0.0, 0.0, 0.0)
+        self._obstacles: np.ndarray | None = None
 
     @property
     def active(self) -> bool:
@@ -100,6 +104,7 @@ class Docker:
         self._start_error = -1.0
         self._arrived = False
         self._backwards: bool | None = None
+        self._turn_sign = 0.0
         self._straight = False
         self._cap = self.limits.max_speed if max_speed is None else max_speed
 
@@ -118,6 +123,7 @@ class Docker:
         ``obstacles`` (N, 2, map frame) are what the move stage keeps the footprint off."""
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
+        self._pose, self._obstacles = (x, y, theta), obstacles
         lim = self.limits
         gx, gy, gth = self.goal
         ex, ey = gx - x, gy - y
@@ -167,7 +173,8 @@ class Docker:
         if abs(bearing) > ALIGN_RAD:
             if dist <= lim.near_m:
                 return "near"
-            return 0.0, math.copysign(max(MIN_TURN, abs(w)), w)
+            return 0.0, self._turn(math.copysign(max(MIN_TURN, abs(w)), w))
+        self._turn_sign = 0.0
         v = self._speed(dist) * math.cos(bearing)
         return (-v if backwards else v), w
 
@@ -180,13 +187,41 @@ class Docker:
         turn = lim.turn_gain * abs(heading_err)
         w = math.copysign(max(MIN_TURN, min(lim.max_turn, turn)), heading_err)
         if abs(heading_err) > max(lim.heading_tolerance_rad, ALIGN_RAD / 2):
-            return 0.0, w, False
+            return 0.0, self._turn(w), False
+        self._turn_sign = 0.0
         along = ex * math.cos(goal_heading) + ey * math.sin(goal_heading)
         if abs(along) > lim.position_tolerance_m:
             return math.copysign(self._speed(abs(along)), along), lim.turn_gain * heading_err, False
         if abs(heading_err) > lim.heading_tolerance_rad:
             return 0.0, w, False
         return 0.0, 0.0, True
+
+    def _turn(self, w: float) -> float:
+        """``w`` for a turn on the spot, or the other way round when this way would sweep
+        a corner into an obstacle point and the other way would not (a wall or an open
+        leaf on one side in the small room between two doors); kept until aligned."""
+        if self._turn_sign:
+            return math.copysign(abs(w), self._turn_sign)
+        if self._sweeps(w) and not self._sweeps(-w):
+            self._turn_sign = -math.copysign(1.0, w)
+            return -w
+        return w
+
+    def _sweeps(self, w: float) -> bool:
+        """True if turning on the spot ``SWEEP_RAD`` the way of ``w`` brings an obstacle
+        point into the footprint grown by ``margin_m`` (none, without points)."""
+        fp, pts = self.footprint, self._obstacles
+        if pts is None or fp is None or len(pts) == 0:
+            return False
+        x, y, theta = self._pose
+        dx, dy = pts[:, 0] - x, pts[:, 1] - y
+        for phi in np.linspace(SWEEP_RAD / 3, SWEEP_RAD, 3):
+            a = theta + math.copysign(phi, w)
+            c, s = math.cos(a), math.sin(a)
+            local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+            if in_footprint(local, fp.front, fp.rear, fp.width, self.margin_m).any():
+                return True
+        return False
 
     def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
         """True if the footprint (grown by ``margin_m``) at the goal point facing
