@@ -9,6 +9,12 @@ wall (people, furniture not in the map). Everything is vectorised over the point
 
 The match also reports how well the scan fits (the share of points within
 ``inlier_m`` of a wall), from which the localisation derives its "lost" flag.
+
+A hinged door's leaf may stand anywhere in its sweep (the quarter disc it turns through)
+and the map draws none of it. Open against a side wall a few centimetres away, its points
+would be matched to that wall and pull the pose sideways by the gap; so in a leaf's sweep
+only points on a mapped wall (within ``ON_WALL_M``) count, the rest are left out as the
+matcher leaves out furniture that is not in the map.
 """
 
 from __future__ import annotations
@@ -20,7 +26,10 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from shared.geometry import wrap_angle
-from shared.site import GridMap
+from shared.site import Door, GridMap, Site
+
+SWEEP_MARGIN_M = 0.1  # a leaf's sweep is taken this much larger than the leaf
+ON_WALL_M = 0.05  # a point in a sweep this close to a mapped wall still counts (a jamb)
 
 
 @dataclass
@@ -36,10 +45,42 @@ class Match:
     covariance: np.ndarray  # 3 x 3, from the Gauss-Newton normal matrix
 
 
-class DistanceField:
-    """Metres to the nearest occupied cell, sampled bilinearly with its gradient."""
+def leaf_sweeps(grid: GridMap, doors: list[Door]) -> np.ndarray:
+    """Cells (the grid's shape, bool) a hinged leaf of ``doors`` may stand on: within the
+    leaf's length plus ``SWEEP_MARGIN_M`` of its hinge, on the side it swings to, from
+    ``SWEEP_MARGIN_M`` behind the hinge (the leaf's thickness) across the opening."""
+    rows, cols = grid.cells.shape
+    mask = np.zeros((rows, cols), dtype=bool)
+    xs = grid.origin[0] + (np.arange(cols) + 0.5) * grid.resolution
+    ys = grid.origin[1] + (np.arange(rows) + 0.5) * grid.resolution
+    for door in doors:
+        leaf = door.open_leaf()
+        if leaf is None:
+            continue
+        (hx, hy), (tx, ty) = leaf
+        w = door.width_m
+        ux, uy = (door.p2[0] - hx) / w, (door.p2[1] - hy) / w
+        nx, ny = (tx - hx) / w, (ty - hy) / w
+        reach = w + SWEEP_MARGIN_M
+        c0, c1 = np.searchsorted(xs, [min(hx, tx, door.p2[0]) - reach, max(hx, tx) + reach])
+        r0, r1 = np.searchsorted(ys, [min(hy, ty, door.p2[1]) - reach, max(hy, ty) + reach])
+        dx = xs[None, c0:c1] - hx
+        dy = ys[r0:r1, None] - hy
+        along, out = dx * ux + dy * uy, dx * nx + dy * ny
+        inside = (along >= -SWEEP_MARGIN_M) & (out >= 0.0) & (dx**2 + dy**2 <= reach**2)
+        mask[r0:r1, c0:c1] |= inside
+    return mask
 
-    def __init__(self, grid: GridMap, max_distance_m: float = 2.0) -> None:
+
+class DistanceField:
+    """Metres to the nearest occupied cell, sampled bilinearly with its gradient.
+
+    ``sweeps`` (bool, the grid's shape) marks cells where points count only on a wall.
+    """
+
+    def __init__(
+        self, grid: GridMap, max_distance_m: float = 2.0, sweeps: np.ndarray | None = None
+    ) -> None:
         occ = grid.cells >= 65
         if not occ.any():
             raise ValueError("the map has no occupied cell to match against")
@@ -48,6 +89,14 @@ class DistanceField:
         self.res = grid.resolution
         self.ox, self.oy = grid.origin[0], grid.origin[1]
         self.max_distance_m = max_distance_m
+        self.sweeps = sweeps if sweeps is not None and sweeps.any() else None
+
+    @classmethod
+    def for_floor(cls, site: Site, floor: str) -> DistanceField:
+        """The field of ``floor``'s map with the sweeps of the hinged leaves on it."""
+        grid = site.floor(floor).map
+        name = site.floor(floor).name
+        return cls(grid, sweeps=leaf_sweeps(grid, [d for d in site.doors if d.floor == name]))
 
     def sample(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Field value and its x/y gradient at world points (N, 2); max distance outside."""
@@ -69,6 +118,10 @@ class DistanceField:
         )
         gx = ((f01 - f00) * (1 - fv) + (f11 - f10) * fv) / self.res
         gy = ((f10 - f00) * (1 - fu) + (f11 - f01) * fu) / self.res
+        if self.sweeps is not None:  # off a wall in a leaf's sweep: maybe the leaf
+            near_r = np.clip(np.floor(v + 0.5).astype(np.int64), 0, rows - 1)
+            near_c = np.clip(np.floor(u + 0.5).astype(np.int64), 0, cols - 1)
+            inside &= ~(self.sweeps[near_r, near_c] & (value > ON_WALL_M))
         value = np.where(inside, value, self.max_distance_m)
         return value, np.where(inside, gx, 0.0), np.where(inside, gy, 0.0)
 

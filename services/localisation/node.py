@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> None:
                     lc.lost_after_scans,
                     lc.match_cutoff_m,
                 )
-                field = DistanceField(site.floor(floor).map)
+                field = DistanceField.for_floor(site, floor)
                 loc = MapLocaliser(field, x, y, theta, floor, settings)
             else:
                 loc = OdometryLocaliser(x, y, theta, floor)
@@ -59,13 +59,14 @@ def main(argv: list[str] | None = None) -> None:
             p = msg.pose
             floor = p.floor or loc.floor
             try:
-                grid = site.floor(floor).map
+                if isinstance(loc, MapLocaliser) and floor not in fields:
+                    fields[floor] = DistanceField.for_floor(site, floor)
+                else:
+                    site.floor(floor)  # a floor the site lacks is refused in either mode
             except SiteError as exc:
                 svc.log.warning("initial pose refused: %s", exc)
                 return
             if isinstance(loc, MapLocaliser):
-                if floor not in fields:
-                    fields[floor] = DistanceField(grid)
                 loc.reset(fields[floor], p.x, p.y, p.theta, floor)
             else:
                 loc.reset(p.x, p.y, p.theta, floor)

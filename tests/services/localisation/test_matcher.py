@@ -106,7 +106,7 @@ def test_an_open_leaf_beside_a_wall_does_not_pull_the_pose(tmp_path) -> None:
         f"sim.start.theta={truth[2]}",
         "building.doors={d2_011: {start_open: true}}",
     ]
-    field = DistanceField(site.floor("2").map)
+    field = DistanceField.for_floor(site, "2")
     for seed in (105, 0, 1):  # 105: the mission's own seed, whose noise tips it over
         sim = Simulation(load(None, [*over, f"sim.seed={seed}"]), site)
         for _ in range(sim.scan_every):
