@@ -73,7 +73,8 @@ def leaf_sweeps(grid: GridMap, doors: list[Door]) -> np.ndarray:
 
 
 class DistanceField:
-    """Metres to the nearest occupied cell, sampled bilinearly with its gradient.
+    """Signed metres to the nearest wall face (negative inside a wall), sampled bilinearly
+    with its gradient.
 
     ``sweeps`` (bool, the grid's shape) marks cells where points count only on a wall.
     """
@@ -84,8 +85,14 @@ class DistanceField:
         occ = grid.cells >= 65
         if not occ.any():
             raise ValueError("the map has no occupied cell to match against")
-        dist = distance_transform_edt(~occ, sampling=grid.resolution)
-        self.field = np.minimum(dist, max_distance_m).astype(np.float64)
+        # signed, from the walls' faces: each edt runs between cell centres, half a cell
+        # beyond the face on either side (unsigned from the occupied centres, a wall that
+        # fills most of a scan pulled the pose half a cell into it)
+        half = grid.resolution / 2
+        outside = distance_transform_edt(~occ, sampling=grid.resolution) - half
+        depth = distance_transform_edt(occ, sampling=grid.resolution) - half
+        signed = np.where(occ, -depth, outside)
+        self.field = np.clip(signed, -max_distance_m, max_distance_m).astype(np.float64)
         self.res = grid.resolution
         self.ox, self.oy = grid.origin[0], grid.origin[1]
         self.max_distance_m = max_distance_m
@@ -155,7 +162,7 @@ def match_scan(
         # the cut-off shrinks as the match settles, so unmapped objects near walls (an open
         # door leaf, a person) stop pulling; Cauchy weights soften what is left
         cut = max(inlier_m, cutoff_m * 0.7 ** (it - 1))
-        use = d < cut
+        use = np.abs(d) < cut
         if use.sum() < 10:
             break
         # d(world point)/d(theta) = (-s px - c py, c px - s py)
@@ -174,7 +181,7 @@ def match_scan(
     c, s = math.cos(th), math.sin(th)
     final = np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], axis=1)
     d, _gx, _gy = field.sample(final)
-    inliers = d < inlier_m
+    inliers = np.abs(d) < inlier_m
     ratio = float(inliers.mean()) if len(d) else 0.0
     rms = float(np.sqrt(np.mean(d[inliers] ** 2))) if inliers.any() else math.inf
     sigma2 = max(rms, 0.01) ** 2

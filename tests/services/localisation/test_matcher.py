@@ -131,7 +131,7 @@ def test_a_pose_near_one_wall_is_not_pulled_into_it(tmp_path) -> None:
     write_map(draw((6.4, 3.2), walls), tmp_path, "room")
     site = load_site(tmp_path / "room.yaml")
     field = DistanceField.for_floor(site, "1")
-    for x, y, theta in ((5.3, 2.4, 0.0), (0.9, 0.7, 3.0), (3.2, 1.6, 1.2)):
+    for x, y, theta in ((5.3, 2.4, 0.0), (1.4, 0.7, 3.0), (3.2, 1.6, 1.2)):
         over = [
             f"site={tmp_path / 'room.yaml'}",
             "sim.start.place=",
