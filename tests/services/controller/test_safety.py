@@ -54,6 +54,22 @@ def test_turning_on_the_spot_stops_before_a_corner_sweeps_into_a_wall() -> None:
     assert guard(0.3, 0.5, "following", scan_points=cupboard, **ok)[2] == "following"  # MPC's
 
 
+def test_a_turn_never_brings_a_wall_nearer_once_it_is_within_the_margin() -> None:
+    """Issue 13 failure mode 7 (too close): a point already inside the footprint grown by
+    the side margin was left out of the turn check, so a docking turn beside a wall 3 cm
+    from a corner could swing that corner on into it (campaigns saw 2.7-4.6 cm). A turn
+    may not bring such a point nearer; a turn that moves the corner away from it does not
+    stop the chair."""
+    fp = ROBOT.footprint
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    front_left = pts((fp.front - 0.02, fp.width / 2 + 0.03))  # 3 cm beside the front corner
+    assert guard(0.0, 0.5, "following", scan_points=front_left, **ok)[2] == "obstacle"
+    assert guard(0.0, -0.5, "following", scan_points=front_left, **ok)[2] == "following"
+    rear_left = pts((-fp.rear + 0.02, fp.width / 2 + 0.03))  # beside the rear corner
+    assert guard(0.0, -0.5, "following", scan_points=rear_left, **ok)[2] == "obstacle"
+    assert guard(0.0, 0.5, "following", scan_points=rear_left, **ok)[2] == "following"
+
+
 def test_guard_reasons() -> None:
     ok = dict(now=10.0, scan_points=pts((3.0, 0.0)), robot=ROBOT, cfg=CFG, band_m=0.5)
     assert guard(0.3, 0.1, "following", pose_ok=True, scan_stamp=9.9, **ok) == (
