@@ -36,7 +36,7 @@ import numpy as np
 
 from services.controller.command import Command
 from shared.config import ControllerConfig, Footprint, RobotConfig
-from shared.geometry import angle_between, in_footprint, wrap_angle
+from shared.geometry import angle_between, in_footprint, turn_closes_in, wrap_angle
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
 MIN_SPEED = 0.03  # m/s: below this the chair barely moves against its motor lag
@@ -209,19 +209,17 @@ class Docker:
 
     def _sweeps(self, w: float) -> bool:
         """True if turning on the spot ``SWEEP_RAD`` the way of ``w`` brings an obstacle
-        point into the footprint grown by ``margin_m`` (none, without points)."""
+        point within ``margin_m`` of the footprint, or one already that near nearer still
+        (none, without points)."""
         fp, pts = self.footprint, self._obstacles
         if pts is None or fp is None or len(pts) == 0:
             return False
         x, y, theta = self._pose
+        c, s = math.cos(theta), math.sin(theta)
         dx, dy = pts[:, 0] - x, pts[:, 1] - y
-        for phi in np.linspace(SWEEP_RAD / 3, SWEEP_RAD, 3):
-            a = theta + math.copysign(phi, w)
-            c, s = math.cos(a), math.sin(a)
-            local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
-            if in_footprint(local, fp.front, fp.rear, fp.width, self.margin_m).any():
-                return True
-        return False
+        local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+        angle = math.copysign(SWEEP_RAD, w)
+        return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
 
     def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
         """True if the footprint (grown by ``margin_m``) at the goal point facing

@@ -8,8 +8,9 @@ with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed
 proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
 door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
-the footprint turned ``turn_check_deg`` further must not take in a point it does not
-already hold. Pure: points come in the robot frame.
+the footprint turned ``turn_check_deg`` further must not come within the side margin of
+a point, nor nearer to one already that near (a corner swinging on into a wall). Pure:
+points come in the robot frame.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
-from shared.geometry import in_footprint
+from shared.geometry import turn_closes_in
 
 
 def stop_zone_hit(
@@ -41,24 +42,15 @@ def turn_sweep_hit(
     points: np.ndarray, robot: RobotConfig, w: float, angle_rad: float, band_m: float
 ) -> bool:
     """True if turning on the spot by ``angle_rad`` (the sign of ``w``) brings a point (N, 3,
-    robot frame) inside the footprint grown by ``robot.side_margin_m`` that is not inside it
-    now: the corners of a chair turning in a small room sweep a circle the stop strip ahead
-    never sees."""
+    robot frame) within ``robot.side_margin_m`` of the footprint, or one already that near
+    nearer still: the corners of a chair turning in a small room sweep a circle the stop
+    strip ahead never sees."""
     if points is None or len(points) == 0 or abs(w) < 1e-3:
         return False
-    fp, m = robot.footprint, robot.side_margin_m
+    fp = robot.footprint
     pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
-
-    def inside(p: np.ndarray) -> np.ndarray:
-        return in_footprint(p, fp.front, fp.rear, fp.width, m)
-
-    pts = pts[~inside(pts)]
-    for phi in np.linspace(angle_rad / 4, angle_rad, 4) * np.sign(w):
-        c, s = np.cos(phi), np.sin(phi)
-        turned = np.column_stack((c * pts[:, 0] + s * pts[:, 1], -s * pts[:, 0] + c * pts[:, 1]))
-        if inside(turned).any():
-            return True
-    return False
+    angle = float(np.sign(w)) * angle_rad
+    return turn_closes_in(pts, fp.front, fp.rear, fp.width, robot.side_margin_m, angle)
 
 
 def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
