@@ -1,7 +1,8 @@
 """Scan-to-map matching: the pose that puts the LiDAR points on the map's walls.
 
-The map becomes a distance field (metres from each cell to the nearest occupied cell,
-by Euclidean distance transform). A scan is matched by Gauss-Newton on the pose
+The map becomes a signed distance field: metres from each cell's centre to the nearest
+wall face, negative inside walls (two Euclidean distance transforms, each less half a
+cell, since they run between cell centres and a face lies between two). A scan is matched by Gauss-Newton on the pose
 (x, y, theta), minimising the squared field value at the scan's end points (bilinear
 interpolation with its exact gradient), with a cut-off that ignores points far from any
 wall (people, furniture not in the map). Everything is vectorised over the points; a
