@@ -7,6 +7,8 @@ wheelnav go PLACE [--wait] | cancel | status   the mission API on a live fleet
 wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
 wheelnav compose [--check]               docker-compose.yml from the fleet definition
 wheelnav bench planner [--json]          performance figures against a named peer
+wheelnav plan MAP --start X,Y --goal X,Y  a route on a map, without the fleet (--json, --png)
+wheelnav rooms MAP [--floor F]           a floor's rooms and doors (--json, --png)
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     from wheelnav.bench import cli as bench_cli
     from wheelnav.campaign import runner as campaign_runner
     from wheelnav.launcher import cli as launcher_cli
+    from wheelnav.maptools import cli as maptools_cli
     from wheelnav.mission import cli as mission_cli
     from wheelnav.topic_tools import cli as topic_cli
 
@@ -39,6 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     topic_cli.add_tree_command(sub)
     bench_cli.add_commands(sub)
     campaign_runner.add_commands(sub)
+    maptools_cli.add_commands(sub)
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)

@@ -30,6 +30,7 @@ class Plan:
     v_ref: np.ndarray
     length_m: float
     zones: list[str] = field(default_factory=list)  # per waypoint: room/corridor/door/goal
+    corners: np.ndarray | None = None  # (M, 2) the search's path before densifying
 
 
 @dataclass
@@ -75,6 +76,12 @@ class Planner:
             return self.site.floor(floor).name
         except SiteError as exc:
             raise errors.UnknownFloor(str(exc)) from None
+
+    def lethal(self, floor: str) -> tuple[GridMap, np.ndarray]:
+        """The floor's grid and the cells the chair's reference point may not enter
+        (obstacles and open leaves grown by the inflation radius)."""
+        fg = self._floors[self.floor_name(floor)]
+        return fg.grid, fg.lethal
 
     def is_free(self, xy: tuple[float, float], floor: str) -> bool:
         """True if the chair's reference point may stand at ``xy`` (inside the map, not lethal)."""
@@ -126,7 +133,7 @@ class Planner:
         spacing = max(self.cfg.waypoint_spacing_m, length / self.cfg.max_waypoints)
         waypoints = densify(pts, spacing)
         v_ref = speed_profile(waypoints, self.cfg.cruise_speed, self.cfg.goal_speed_radius_m)
-        return Plan(floor, waypoints, v_ref, length)
+        return Plan(floor, waypoints, v_ref, length, corners=pts)
 
     def _search(
         self,
