@@ -150,6 +150,9 @@ def test_powered_door_is_requested_open_then_released() -> None:
     fleet.arrive()
     tree.tick()
     assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED)
+    # once the leaf can no longer reach the chair: the door's floor, middle (here halfway
+    # from approach to exit, the checkpoint has no centre), normal and width
+    assert fleet.closing["d1"] == ("1", (2.1, 0.0, 0.0), 1.0)
 
 
 def test_position_correction_retries_then_gives_up_with_the_error() -> None:

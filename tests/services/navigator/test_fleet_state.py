@@ -88,3 +88,30 @@ def test_marked_blocking_points_go_into_the_next_route_request() -> None:
     assert len(req.blocked) == 7 and abs(req.blocked[0].x - 3.2) < 1e-6
     encode(req)  # float32 scan values would not go on the wire
     assert not fleet.room_to_turn(1.3) and fleet.room_to_turn(1.1)
+
+
+def test_a_powered_door_is_closed_only_once_its_leaf_cannot_reach_the_chair() -> None:
+    """Campaign b8.m07 (generated building 8): the navigator asked powered hinged door
+    d3_021 (1.05 m) to close as soon as the pass ended, 0.7 m past the door plane, and the
+    leaf swung shut through the chair (a collision, 0.46 m of overlap)."""
+    s = state()
+    s.on_clock(Clock(stamp=10.0, tick=500, dt=0.02))
+    s.on_pose(PoseEstimate(10.0, Pose2D(28.42, 14.92, 0.28, "3"), np.eye(3)))
+    s.close_door_when_clear("d3_021", "3", (27.7, 14.925, 0.0), 1.05)
+    assert s.doors_clear_to_close() == []
+    s.on_pose(PoseEstimate(11.0, Pose2D(29.5, 14.9, 0.0, "3"), np.eye(3)))
+    assert s.doors_clear_to_close() == []  # the leaf's tip still reaches the chair's front
+    s.on_pose(PoseEstimate(12.0, Pose2D(30.6, 14.9, 0.0, "3"), np.eye(3)))
+    (req,) = s.doors_clear_to_close()
+    assert (req.door_name, req.requested_mode) == ("d3_021", DoorMode.CLOSED)
+    assert s.doors_clear_to_close() == []  # asked once
+
+
+def test_a_door_left_behind_on_another_floor_is_closed_and_a_reopened_one_is_not() -> None:
+    s = state()
+    s.on_pose(PoseEstimate(0.0, Pose2D(1.0, 0.0, 0.0, "1"), np.eye(3)))
+    s.close_door_when_clear("d1", "1", (0.0, 0.0, 0.0), 1.0)
+    s.close_door_when_clear("d2", "1", (0.5, 0.0, 0.0), 1.0)
+    s.door_request("d2", DoorMode.OPEN)  # asked open again: the close is dropped
+    s.on_pose(PoseEstimate(1.0, Pose2D(1.0, 0.0, 0.0, "2"), np.eye(3)))
+    assert [r.door_name for r in s.doors_clear_to_close()] == ["d1"]
