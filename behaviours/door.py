@@ -30,6 +30,26 @@ class RequestDoor(FleetBehaviour):
         return Status.SUCCESS
 
 
+class ReleaseDoor(FleetBehaviour):
+    """Let a powered door close behind the chair. Always SUCCESS at once.
+
+    The close is sent when the door's leaf can no longer reach the chair, not now: a pass
+    ends a short way past the door plane, inside a hinged leaf's sweep, and a leaf closing
+    then swings through the chair.
+    """
+
+    def __init__(
+        self, door_id: str, floor: str, centre: tuple[float, float, float], width_m: float
+    ) -> None:
+        super().__init__(f"Release {door_id}")
+        self.door_id, self.floor, self.centre, self.width_m = door_id, floor, centre, width_m
+
+    def update(self) -> Status:
+        self.fleet.close_door_when_clear(self.door_id, self.floor, self.centre, self.width_m)
+        self.feedback_message = "to close when clear"
+        return Status.SUCCESS
+
+
 class WaitForDoorOpen(FleetBehaviour):
     """RUNNING until the door is open by both accounts, then SUCCESS.
 

@@ -56,6 +56,12 @@ class Fleet(Protocol):
     def request_door(self, door_id: str, mode: int) -> None:
         """Ask the building to open or close ``door_id`` (a DoorMode value)."""
 
+    def close_door_when_clear(
+        self, door_id: str, floor: str, centre: tuple[float, float, float], width_m: float
+    ) -> None:
+        """Ask the building to close ``door_id`` once its leaf can no longer reach the chair
+        (the door on ``floor``, middle and normal ``centre`` (x, y, theta), ``width_m``)."""
+
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         """(stamp of the latest scan, "open" / "closed" / "unknown") for the door centred at
         (x, y), ``width_m`` wide (0: unknown)."""

@@ -14,7 +14,7 @@ first one got, as the seed's phase manager built its action list)::
                                        │   │   ├── Phase 2: Timeout(WaitForDoorOpen    verify
                                        │   │   │            [|| IdleMotion: automatic])
                                        │   │   ├── Phase 3: Timeout(DriveThrough)      pass
-                                       │   │   └── RequestDoor CLOSED            (powered)
+                                       │   │   └── ReleaseDoor: close when clear (powered)
                                        │   ├── Leg 1 ...
                                        │   └── Elevator <id> (Sequence, memory)
                                        │       ├── Call car, Phase 0, Arrive (lift + LiDAR)
@@ -44,14 +44,14 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
-from behaviours.door import IdleMotion, RequestDoor, WaitForDoorOpen
+from behaviours.door import IdleMotion, ReleaseDoor, RequestDoor, WaitForDoorOpen
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import NS, FleetBehaviour
 from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
 from behaviours.safety import SafetyGate
 from behaviours.timeouts import Timeout
 from shared.config import FleetConfig, NavigatorConfig
-from shared.messages import DoorMode, Path, Phase, RouteReply
+from shared.messages import DoorMode, Path, Phase, Pose2D, RouteReply
 
 DRIVE = "Drive"  # the route tree's sequence of steps
 
@@ -271,7 +271,8 @@ def _door_steps(
         ),
     ]
     if cp.door_type == "powered" and building:
-        steps.append(RequestDoor(cp.id, DoorMode.CLOSED))
+        middle = cp.centre or Pose2D((a.x + e.x) / 2, (a.y + e.y) / 2, a.theta)
+        steps.append(ReleaseDoor(cp.id, cp.floor, (middle.x, middle.y, middle.theta), cp.width_m))
     return py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=steps)
 
 

@@ -2,11 +2,11 @@
 
 The map becomes a signed distance field: metres from each cell's centre to the nearest
 wall face, negative inside walls (two Euclidean distance transforms, each less half a
-cell, since they run between cell centres and a face lies between two). A scan is matched by Gauss-Newton on the pose
-(x, y, theta), minimising the squared field value at the scan's end points (bilinear
-interpolation with its exact gradient), with a cut-off that ignores points far from any
-wall (people, furniture not in the map). Everything is vectorised over the points; a
-360-point scan matches in well under a millisecond.
+cell, since they run between cell centres and a face lies between two). A scan is
+matched by Gauss-Newton on the pose (x, y, theta), minimising the squared field value at
+the scan's end points (bilinear interpolation with its exact gradient), with a cut-off
+that ignores points far from any wall (people, furniture not in the map). Everything is
+vectorised over the points; a 360-point scan matches in well under a millisecond.
 
 The match also reports how well the scan fits (the share of points within
 ``inlier_m`` of a wall), from which the localisation derives its "lost" flag.

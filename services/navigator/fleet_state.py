@@ -17,6 +17,7 @@ from services.navigator.door_check import UNKNOWN, door_state_from_scan, lane_bl
 from shared.config import DoorCheckConfig
 from shared.messages import (
     Clock,
+    DoorMode,
     DoorRequest,
     DoorState,
     Event,
@@ -59,6 +60,7 @@ class FleetState:
         self.sensor_height_m = sensor_height_m
         self.half_width_m = half_width_m
         self.front_m, self.rear_m = front_m, rear_m  # the footprint around the pose point
+        self.reach_m = math.hypot(max(front_m, rear_m), half_width_m)  # its farthest corner
         self.source = source
         self.clock: Clock | None = None
         self.avoided: set[str] = set()
@@ -70,6 +72,7 @@ class FleetState:
         self._scan: PointCloud | None = None
         self._doors: dict[str, int] = {}
         self._lifts: dict[str, LiftState] = {}
+        self._closing: dict[str, tuple[str, float, float, float, float]] = {}
 
     # ---- what arrives -------------------------------------------------------------------
 
@@ -234,4 +237,38 @@ class FleetState:
         return Event(self.now(), self.source, kind, detail, level)
 
     def door_request(self, door_id: str, mode: int) -> DoorRequest:
+        """The request message; asking a door open drops a close still waiting for it."""
+        if mode != DoorMode.CLOSED:
+            self._closing.pop(door_id, None)
         return DoorRequest(self.now(), self.robot, door_id, mode)
+
+    def close_door_when_clear(
+        self, door_id: str, floor: str, centre: tuple[float, float, float], width_m: float
+    ) -> None:
+        self._closing[door_id] = (floor, *centre, width_m)
+
+    def doors_clear_to_close(self) -> list[DoorRequest]:
+        """Close requests for the doors waiting to close whose leaf can no longer reach
+        the chair, each returned once.
+
+        Which jamb is the hinge is not known here, so both count: the chair is clear when
+        its pose point is farther than the leaf's length plus the footprint's farthest
+        corner from both ends of the door, or on another floor.
+        """
+        pose = self._pose
+        if pose is None:
+            return []
+        due = []
+        for door_id, (floor, cx, cy, theta, width) in self._closing.items():
+            if pose.pose.floor == floor:
+                ax, ay = -math.sin(theta) * width / 2, math.cos(theta) * width / 2
+                near = min(
+                    math.hypot(pose.pose.x - (cx + s * ax), pose.pose.y - (cy + s * ay))
+                    for s in (-1.0, 1.0)
+                )
+                if near <= width + self.reach_m:
+                    continue
+            due.append(door_id)
+        for door_id in due:
+            del self._closing[door_id]
+        return [self.door_request(d, DoorMode.CLOSED) for d in due]

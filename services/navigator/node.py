@@ -128,6 +128,8 @@ def main(argv: list[str] | None = None) -> None:
         def step(clock: Clock) -> None:
             fleet.on_clock(clock)
             nav.step(clock.stamp)
+            for req in fleet.doors_clear_to_close():
+                bus.publish(keys.key("door_request", door=req.door_name), req)
 
         bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, fleet.on_pose)
         bus.subscribe(svc.declare("subscribes", keys.follow_status), FollowStatus, fleet.on_follow)

@@ -16,6 +16,7 @@ import numpy as np
 
 from shared.messages import (
     Checkpoint,
+    DoorMode,
     FollowStatus,
     LiftState,
     Odometry,
@@ -43,6 +44,7 @@ class ScriptedFleet:
         self.follow: FollowStatus | None = None
         self.doors: dict[str, int] = {}
         self.door_requests: list[tuple[str, int]] = []
+        self.closing: dict[str, tuple[str, tuple[float, float, float], float]] = {}
         self.lifts: dict[str, LiftState] = {}
         self.lift_requests: list[tuple[str, str]] = []
         self.released: list[str] = []
@@ -98,6 +100,10 @@ class ScriptedFleet:
 
     def request_door(self, door_id: str, mode: int) -> None:
         self.door_requests.append((door_id, mode))
+
+    def close_door_when_clear(self, door_id, floor, centre, width_m) -> None:
+        self.door_requests.append((door_id, DoorMode.CLOSED))
+        self.closing[door_id] = (floor, centre, width_m)
 
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         self.widths.append(width_m)
