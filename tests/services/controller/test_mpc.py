@@ -14,6 +14,8 @@ from services.controller.mpc import MPCConfig, SamplingMPC, footprint_points
 from shared.config import ControllerConfig, RobotConfig
 from wheelnav.bench.mpc import (
     RES,
+    _grid,
+    _scene,
     closed_loop,
     door_scene,
     l_corridor_scene,
@@ -240,6 +242,23 @@ def test_points_all_round_also_block() -> None:
     assert (cmd.state, cmd.v, cmd.w) == ("blocked", 0.0, 0.0)
     cmd = mpc.step(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.1)  # the ring is gone: free to go
     assert cmd.state == "following" and cmd.v > 0.0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_leaf_just_beside_the_chair_does_not_block_it_nor_come_nearer(backend: str) -> None:
+    """Campaign b3.m07 and 14 other "blocked (blocked)" missions: after a pass beside an open
+    leaf the chair stood 9.5 cm from it, nearer than the rollouts' collision reading allows
+    (the margin plus a LiDAR cell's rounding), so every rollout counted as colliding from
+    its first step and the chair never moved. Here a leaf 9 cm to the right along the
+    first 0.9 m of a straight path."""
+    fp = RobotConfig().footprint
+    occ, origin = _grid(-2.0, -2.0, 9.0, 2.0, [(-1.5, -1.5, 8.5, 1.5, True)])
+    xs = np.linspace(-0.6, 0.9, 31)
+    leaf = np.c_[xs, np.full_like(xs, -(fp.width / 2 + 0.09))]
+    scene = _scene("leaf", occ, origin, [(0, 0), (6.5, 0)], (0.0, 0.0, 0.0), leaf)
+    result = closed_loop(MPCConfig(backend=backend, **ONE), scene, period_s=0.1)
+    assert result["state"] == "arrived"
+    assert result["min_clearance_m"] >= 0.05
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
