@@ -42,6 +42,7 @@ from services.controller.command import Command
 from services.controller.mpc_guides import guide_rollout, guide_rollout_nb
 from services.controller.mpc_numpy import rollout_poses
 from services.controller.mpc_scene import (
+    FAR,
     Field,
     Scene,
     footprint_body,
@@ -317,6 +318,16 @@ class SamplingMPC:
             ]
         )
         s_exp = self._expected_progress(s_now)
+        obs = obstacle_field(
+            obstacles,
+            x,
+            y,
+            cfg.obstacle_resolution_m,
+            max(cfg.obstacle_influence_m, self._body.threshold),
+            self._body,
+            reach,
+        )
+        thr = self._body.threshold
         params = np.array(
             [
                 s_now,
@@ -327,6 +338,8 @@ class SamplingMPC:
                 cfg.obstacle_influence_m,
                 cfg.v_window_min,
                 cfg.v_window_max,
+                min(thr, self._clearance_now(self._wall, x, y, theta)),
+                min(thr, self._clearance_now(obs, x, y, theta)),
             ]
         )
         return Scene(
@@ -334,15 +347,7 @@ class SamplingMPC:
             limits=limits,
             sigma=np.array([cfg.sigma_v, cfg.sigma_w, cfg.noise_corr]),
             wall=self._wall,
-            obs=obstacle_field(
-                obstacles,
-                x,
-                y,
-                cfg.obstacle_resolution_m,
-                max(cfg.obstacle_influence_m, self._body.threshold),
-                self._body,
-                reach,
-            ),
+            obs=obs,
             path_xy=pxy,
             path_s=np.ascontiguousarray(self._ss[lo : hi + 1]),
             path_len=seg,
@@ -357,6 +362,22 @@ class SamplingMPC:
             s_wt=np.array([cfg.progress_running, (1.0 - cfg.progress_running) * cfg.steps]),
             weights=self._weights,
         )
+
+    def _clearance_now(self, f: Field | None, x: float, y: float, theta: float) -> float:
+        """The footprint's reading in ``f`` where the chair stands (FAR without a field).
+
+        A rollout collides when it reads less than the threshold or, where the chair
+        already stands nearer than that (beside an open leaf after a pass), less than it
+        reads now: it may move along or away, never nearer. Else every rollout would
+        collide from its first step and the chair could not leave.
+        """
+        if f is None:
+            return FAR
+        c, s = math.cos(theta), math.sin(theta)
+        pts = self._body.points.astype(np.float64)
+        qx = (x + c * pts[:, 0] - s * pts[:, 1]).astype(np.float32)
+        qy = (y + s * pts[:, 0] + c * pts[:, 1]).astype(np.float32)
+        return float(mpc_numpy.lookup(f, qx, qy).min())
 
     def _shifted(self, period: float) -> np.ndarray:
         """The previous sequence shifted by ``period`` (interpolated), its last input held."""

@@ -182,6 +182,7 @@ def _kernel(
     beta = math.sqrt(1.0 - rho * rho)
     s_now, huber, thr = params[0], params[2], params[3]
     inf_w, inf_o, win_lo, win_hi = params[4], params[5], params[6], params[7]
+    thr_w, thr_o = params[8], params[9]
     cuts = np.array([max(inf_w, thr), max(inf_o, thr)])
     n_seg = plen.shape[0]
     n_tab = vtab.shape[0]
@@ -252,7 +253,7 @@ def _kernel(
                     a_wall += (1.0 - cw / inf_w) ** 2
                 if co < inf_o:
                     a_obs += (1.0 - co / inf_o) ** 2
-                if cw < thr or co < thr:
+                if cw < thr_w or co < thr_o:
                     hit = True
             if goal_on:
                 a_goal += math.sqrt((x - goal[0]) ** 2 + (y - goal[1]) ** 2)

@@ -42,7 +42,7 @@ def rollout_poses(inputs: np.ndarray, x: float, y: float, theta: float, dt: floa
     return np.stack([xs, ys, th], axis=-1)
 
 
-def _lookup_np(f: Field, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def lookup(f: Field, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Value of the cell each world point falls in; ``f.outside`` off the grid."""
     h, w = f.data.shape
     inv = np.float32(1.0 / f.res)
@@ -76,7 +76,7 @@ def evaluate(
     x0, y0, th0, v0, w0 = sc.state
     dt, vmin, vmax, wmax, dvmax, dwmax = sc.limits
     sv, sw, rho = sc.sigma
-    s_now, _, huber, thr, inf_w, inf_o, win_lo, win_hi = sc.params
+    s_now, _, huber, _, inf_w, inf_o, win_lo, win_hi, thr_w, thr_o = sc.params
     f32 = np.float32
     eps = noise.copy()
     if rho > 0:
@@ -130,11 +130,11 @@ def evaluate(
     # clearance of every footprint check point
     qx = x[..., None] + c[..., None] * fp[:, 0] - s[..., None] * fp[:, 1]
     qy = y[..., None] + s[..., None] * fp[:, 0] + c[..., None] * fp[:, 1]
-    cw = _lookup_np(sc.wall, qx, qy).min(axis=2) if sc.wall else np.full((k, t), FAR, f32)
-    co = _lookup_np(sc.obs, qx, qy).min(axis=2) if sc.obs else np.full((k, t), FAR, f32)
+    cw = lookup(sc.wall, qx, qy).min(axis=2) if sc.wall else np.full((k, t), FAR, f32)
+    co = lookup(sc.obs, qx, qy).min(axis=2) if sc.obs else np.full((k, t), FAR, f32)
     wall = np.maximum(1.0 - cw / f32(inf_w), 0) ** 2
     obst = np.maximum(1.0 - co / f32(inf_o), 0) ** 2
-    col[:] = ((cw < thr) | (co < thr)).any(axis=1)
+    col[:] = ((cw < thr_w) | (co < thr_o)).any(axis=1)
     goal = np.hypot(x - f32(sc.goal[0]), y - f32(sc.goal[1])) if sc.goal_on else 0.0
 
     # the weighted terms (mpc_costs.TERMS), progress last: it is charged on some steps only

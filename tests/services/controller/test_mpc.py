@@ -94,7 +94,8 @@ def test_nearer_an_obstacle_costs_more(backend: str) -> None:
         costs.append(ev.cost[0])
         assert not ev.colliding[0]
     assert costs[2] > costs[1] > costs[0] >= 0.0
-    ev = mpc.evaluate(0.0, 0.0, 0.0, 0.4, 0.0, seq, np.c_[xs, np.full_like(xs, 0.3)])
+    ahead = xs[xs >= 1.5]  # a line the footprint runs into (it is clear of it now)
+    ev = mpc.evaluate(0.0, 0.0, 0.0, 0.4, 0.0, seq, np.c_[ahead, np.full_like(ahead, 0.3)])
     assert ev.colliding[0]
 
 
