@@ -10,6 +10,7 @@ limits of issue 13 are not asserted yet: b0.m02 passes a wall at 4.1 cm (limit 5
 from __future__ import annotations
 
 import io
+import json
 from pathlib import Path
 
 from wheelnav.campaign.runner import CampaignSpec, run
@@ -26,6 +27,8 @@ def test_a_slice_of_the_campaign_runs_as_expected_and_resumes(tmp_path: Path) ->
     for mid, row in rows.items():
         assert row["as_expected"], f"{mid}: {row['outcome']} ({row['reason']})"
         assert row["collisions"] == 0, mid
+        report = json.loads(Path(row["report"]).read_text())  # the whole report is kept
+        assert report["scenario"] == row["scenario"] and report["events"] is not None, mid
     assert "geometry drawn" in out.getvalue() and "replay" not in out.getvalue()
     again = io.StringIO()
     second = run(spec, err=again, out=io.StringIO())

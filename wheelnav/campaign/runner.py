@@ -87,7 +87,10 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
             err.write(f"[{i:3d}/{len(todo)}] {mid} ({scenario.kind or '-'}) ...")
             err.flush()
             report = MissionRun(scenario, quiet=True).run()
-            row = {"id": mid, **judge(scenario, report), "mission": mid}
+            saved = spec.out / "reports" / f"{mid}.json"
+            saved.parent.mkdir(parents=True, exist_ok=True)
+            saved.write_text(json.dumps(report, indent=1, default=str))
+            row = {"id": mid, **judge(scenario, report), "mission": mid, "report": str(saved)}
             store.put(row)
             fresh += 1
             elapsed = time.monotonic() - started

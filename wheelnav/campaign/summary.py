@@ -120,6 +120,8 @@ def format_failures(rows: list[dict[str, Any]]) -> str:
     for r in bad:
         lines.append(f"  {r['mission']}: {r['outcome']} (expected {r['expected']}): {r['reason']}")
         lines.append(f"    replay: {r['replay']}")
+        if r.get("report"):
+            lines.append(f"    report (events, phases): {r['report']}")
     return "\n".join(lines)
 
 

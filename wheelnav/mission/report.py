@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,10 @@ import numpy as np
 from shared.geometry import wrap_angle
 from shared.messages import TERMINAL_STATES, DoorClearance, NavStatus, RouteReply, SimStatus
 from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
+
+
+MAX_ACTIONS = 2000  # status text changes kept in a report
+_DIGITS = re.compile(r"-?\d+(\.\d+)?")
 
 
 @dataclass
@@ -44,11 +49,13 @@ class Recorder:
     path_length_m: float = 0.0
     phases: list[Phase] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
+    actions: list[dict[str, Any]] = field(default_factory=list)  # the status text's changes
     _last_xy: tuple[float, float] | None = None
     _truth: PoseHistory = field(default_factory=PoseHistory)
     _loc_sq: list[tuple[float, float]] = field(default_factory=list)
     _track_sq: list[float] = field(default_factory=list)
     checkpoints: CheckpointLog = field(default_factory=CheckpointLog)
+    _action_shape: str = ""
 
     @property
     def finished(self) -> bool:
@@ -58,6 +65,7 @@ class Recorder:
         if msg.goal_id != self.goal_id or self.finished:
             return
         phase = msg.phase if msg.state == "running" else ""
+        self._note_action(msg.stamp, phase, msg.action)
         current = self.phases[-1] if self.phases and self.phases[-1].end_s is None else None
         if phase and (current is None or current.name != phase):
             if current is not None:
@@ -69,6 +77,15 @@ class Recorder:
             self.state, self.reason, self.sim_time_s = msg.state, msg.reason, msg.stamp
         elif self.state == "pending":
             self.state = "running"
+
+    def _note_action(self, stamp: float, phase: str, text: str) -> None:
+        """Keep the navigator's status text where it changes in more than its numbers
+        ("0.06 of 2.25 m" and "1.06 of 2.25 m" are one entry), at most ``MAX_ACTIONS``."""
+        shape = _DIGITS.sub("#", text)
+        if not text or len(self.actions) >= MAX_ACTIONS or shape == self._action_shape:
+            return
+        self._action_shape = shape
+        self.actions.append({"t": round(stamp, 3), "phase": phase, "text": text})
 
     def on_sim_status(self, msg: SimStatus) -> None:
         if self.finished:
@@ -184,6 +201,7 @@ class Recorder:
                 for p in self.phases
             ],
             "events": self.events,
+            "actions": self.actions,
         }
 
 

@@ -80,3 +80,20 @@ def test_recorder_time_limit_and_collisions() -> None:
     rep = r.report("x", 1.0)
     assert not rep["success"] and rep["state"] == "timeout"
     assert rep["reason"] == "time limit of 30 s reached" and rep["collisions"] == 2
+
+
+def test_the_report_keeps_the_status_text_where_it_changes_in_more_than_numbers() -> None:
+    r = Recorder("g1")
+    for t, phase, text in [
+        (1.0, "pass", "0.06 of 2.25 m by odometry"),
+        (2.0, "pass", "1.06 of 2.25 m by odometry"),  # only numbers changed: not kept
+        (3.0, "pass", "holding: LiDAR: something in the doorway ahead"),
+        (4.0, "pass", "holding: LiDAR: something in the doorway ahead"),
+        (5.0, "follow", "following route-3.1"),
+    ]:
+        r.on_status(NavStatus(t, "g1", "running", action=text, phase=phase))
+    assert [(a["t"], a["text"]) for a in r.report("demo", 1.0)["actions"]] == [
+        (1.0, "0.06 of 2.25 m by odometry"),
+        (3.0, "holding: LiDAR: something in the doorway ahead"),
+        (5.0, "following route-3.1"),
+    ]
