@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 from services.planner.grid_planner import Planner
@@ -22,14 +23,18 @@ from sim.sitegen import draw, write_map
 ROBOT = RobotConfig()
 
 
-def corridor_site(folder: Path, motion: str = "sliding", swing: str = "left") -> object:
-    """A 1.8 m corridor (y 3.1-4.9) over a room (y < 2.9), a 0.9 m door between at x 5."""
+def corridor_site(
+    folder: Path, motion: str = "sliding", swing: str = "left", width: float = 0.9, x: float = 5.0
+) -> object:
+    """A 1.8 m corridor (y 3.1-4.9) over a room (y < 2.9), a door ``width`` wide between
+    them, centred at ``x``."""
     t = 0.2
     top = 4.9
     walls = [(0, 0, 10, t), (0, top, 10, top + t), (0, 0, t, top + t), (10 - t, 0, 10, top + t)]
     walls.append((0, 2.9, 10, 3.1))
-    write_map(draw((10, top + t), walls, [(4.55, 2.9, 5.45, 3.1)]), folder, "floor1")
-    door = {"id": "d", "floor": "1", "p1": [4.55, 3.0], "p2": [5.45, 3.0], "type": "manual"}
+    x1, x2 = round(x - width / 2, 3), round(x + width / 2, 3)
+    write_map(draw((10, top + t), walls, [(x1, 2.9, x2, 3.1)]), folder, "floor1")
+    door = {"id": "d", "floor": "1", "p1": [x1, 3.0], "p2": [x2, 3.0], "type": "manual"}
     door.update(motion=motion, swing=swing)
     site = {
         "name": "t",
@@ -85,3 +90,19 @@ def test_an_open_leaf_is_an_obstacle_but_does_not_narrow_its_own_door(tmp_path: 
     for y in (2.5, 3.0, 3.5):  # the door's centre line stays open
         assert hinged.is_free((5.0, y), "1")
     assert len(hinged.plan((1.0, 4.0), (5.0, 1.2), "1").waypoints) > 1
+
+
+@pytest.mark.parametrize("x", [4.8, 4.85, 4.9, 4.95, 5.0, 5.05, 5.1, 5.15, 5.2])
+def test_the_open_leaf_of_a_narrow_door_leaves_its_centre_line_free(tmp_path: Path, x) -> None:
+    """Campaign b7.m05 and b5.m02: the open leaf of a 0.80 m door, drawn three cells thick,
+    reached a cell into the opening where its edge fell on a cell boundary; grown by the
+    inflation it covered the door's centre line on its side for 0.9 m, so the door had "no
+    free pose within 0.8 m of it" and no route used it, nor the lifts behind it. Door
+    centres a cell apart try every alignment."""
+    site = corridor_site(tmp_path, "hinged", width=0.8, x=x)
+    hinged = Planner(site, ROBOT, PlannerConfig())
+    for y in np.arange(3.0, 4.3, 0.1):  # beside the leaf, which stands from y 3.0 to 3.8
+        assert hinged.is_free((x, float(y)), "1"), y
+    assert not hinged.is_free((x - 0.45, 3.6), "1")  # the leaf is still an obstacle
+    route = routes_for(site).route((1.0, 4.0), "1", (x, 1.2), "1")
+    assert [cp.id for cp in route.checkpoints] == ["d"]
