@@ -186,12 +186,14 @@ def with_open_leaves(occ: np.ndarray, site: Site, floor: str) -> np.ndarray:
     occ = occ.copy()
     grid = site.floor(floor).map
     for door, (hinge, tip) in leaves:
-        # one cell out of the opening, beside the jamb: the leaf must not narrow its own door
+        # one cell out of the opening, beside the jamb, and one cell thick (the cells the
+        # line crosses): the leaf must not narrow its own door, nor, grown by the
+        # inflation, close the centre line of a narrow one beside it
         ux, uy = (door.p1[0] - door.p2[0]) / door.width_m, (door.p1[1] - door.p2[1]) / door.width_m
         shift = grid.resolution
         a = (hinge[0] + ux * shift, hinge[1] + uy * shift)
         b = (tip[0] + ux * shift, tip[1] + uy * shift)
-        block_segment(occ, grid, a, b, grid.resolution / 2)
+        block_segment(occ, grid, a, b, 0.0)
     return occ
 
 

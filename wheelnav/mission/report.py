@@ -19,7 +19,6 @@ from shared.geometry import wrap_angle
 from shared.messages import TERMINAL_STATES, DoorClearance, NavStatus, RouteReply, SimStatus
 from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
 
-
 MAX_ACTIONS = 2000  # status text changes kept in a report
 _DIGITS = re.compile(r"-?\d+(\.\d+)?")
 
