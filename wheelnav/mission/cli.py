@@ -8,9 +8,12 @@ import sys
 from pathlib import Path
 
 from shared.service import add_override_argument
+from shared.site import load_site
 from wheelnav.mission.report import format_report, write_report
 from wheelnav.mission.run import MissionRun
-from wheelnav.mission.scenario import load_scenario
+from wheelnav.mission.scenario import Scenario, load_scenario
+
+PLOTS_HELP = "draw each run into DIR/<scenario>.png: path over the map, speed, clearance, phases"
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -25,6 +28,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rrd", metavar="FILE", help="record the run for the rerun viewer")
     p.add_argument("--quiet", action="store_true", help="only print the report")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.add_argument("--plots", metavar="DIR", help=PLOTS_HELP)
     p.set_defaults(run=run)
     t = sub.add_parser(
         "scenarios",
@@ -33,6 +37,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     t.add_argument("scenarios", nargs="+", help="scenario YAML files")
     t.add_argument("--reports", metavar="DIR", help="write each JSON report into DIR")
+    t.add_argument("--plots", metavar="DIR", help=PLOTS_HELP)
     add_override_argument(t)
     t.set_defaults(run=run_table)
 
@@ -50,6 +55,8 @@ def run_table(args: argparse.Namespace) -> int:
         if args.reports:
             Path(args.reports).mkdir(parents=True, exist_ok=True)
             write_report(report, Path(args.reports) / f"{scenario.name}.json")
+        if args.plots:
+            write_plots(report, scenario, args.plots)
         rows.append(report)
     print(format_table(rows))
     print()
@@ -116,4 +123,15 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(report, indent=2) if args.json else format_report(report))
     if args.report:
         print(f"report written to {args.report}", file=sys.stderr)
+    if args.plots:
+        write_plots(report, scenario, args.plots)
     return 0 if report["success"] else 1
+
+
+def write_plots(report: dict, scenario: Scenario, out_dir: str) -> None:
+    """Draw the run into ``out_dir`` (docs/scenarios.md). matplotlib is imported only here,
+    so the other ``wheelnav`` commands start without it."""
+    from wheelnav.mission import plots
+
+    paths = plots.write_plots(report, load_site(scenario.config.site), out_dir)
+    print(f"plots written to {', '.join(str(p) for p in paths)}", file=sys.stderr)

@@ -20,6 +20,9 @@ from shared.messages import TERMINAL_STATES, DoorClearance, NavStatus, RouteRepl
 from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
 
 MAX_ACTIONS = 2000  # status text changes kept in a report
+TRACE_EVERY_S = 0.25  # simulation seconds between the trace's samples, to begin with
+MAX_TRACE = 1200  # trace samples kept: 5 minutes at 0.25 s, then the spacing doubles
+_FAR_M = 1e5  # clearances from here up mean "nothing seen" (the simulator's 1e6)
 _DIGITS = re.compile(r"-?\d+(\.\d+)?")
 
 
@@ -28,6 +31,41 @@ class Phase:
     name: str
     start_s: float
     end_s: float | None = None
+
+
+@dataclass
+class Trace:
+    """The chair's true pose, speed and clearance every ``every_s`` of simulation time, for
+    the report's plots. Bounded: when a sample would make more than ``cap``, every other
+    one is dropped and the spacing doubles, so a long mission keeps an even, coarser trace.
+    """
+
+    every_s: float = TRACE_EVERY_S
+    cap: int = MAX_TRACE
+    samples: list[dict[str, Any]] = field(default_factory=list)
+    latest: dict[str, Any] | None = None  # the newest pose: the trace ends where the chair did
+
+    def add(self, sample: dict[str, Any]) -> None:
+        """Offer one tick's sample; kept if it opens a new ``every_s`` slot."""
+        self.latest = sample
+        if self.samples and self._slot(sample["t"]) <= self._slot(self.samples[-1]["t"]):
+            return
+        if len(self.samples) >= self.cap:
+            self.samples = self.samples[::2]
+            self.every_s *= 2
+            self.add(sample)
+            return
+        self.samples.append(sample)
+
+    def _slot(self, t: float) -> int:
+        return math.floor(t / self.every_s + 1e-9)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """The samples, and the newest pose after them if it was not kept."""
+        last = self.latest
+        if last is not None and (not self.samples or last["t"] > self.samples[-1]["t"]):
+            return [*self.samples, last]
+        return list(self.samples)
 
 
 @dataclass
@@ -55,6 +93,8 @@ class Recorder:
     _track_sq: list[float] = field(default_factory=list)
     checkpoints: CheckpointLog = field(default_factory=CheckpointLog)
     _action_shape: str = ""
+    trace: Trace = field(default_factory=Trace)
+    _clearance: float | None = None  # the latest clearance the simulator reported
 
     @property
     def finished(self) -> bool:
@@ -90,6 +130,7 @@ class Recorder:
         if self.finished:
             return  # the report covers the mission, not the shutdown after it
         self.collisions = max(self.collisions, msg.collisions)
+        self._clearance = msg.clearance_m if msg.clearance_m < _FAR_M else None
         self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
         if msg.min_clearance_away_m < min(1e6, self.min_clearance_away_m):
             self.min_clearance_away_m = msg.min_clearance_away_m
@@ -107,14 +148,38 @@ class Recorder:
         passes = sum(c.pass_distance_m for c in route.checkpoints if c.kind == "door")
         self.planned_length_m = legs + passes
 
-    def on_truth(self, x: float, y: float, theta: float = 0.0, stamp: float | None = None) -> None:
+    def on_truth(
+        self,
+        x: float,
+        y: float,
+        theta: float = 0.0,
+        stamp: float | None = None,
+        v: float = 0.0,
+        floor: str = "",
+    ) -> None:
+        """A true pose (and speed, floor): path length, localisation truth, the trace."""
         if self.finished:
             return
         if stamp is not None:
             self._truth.add(stamp, (x, y, theta))
+            self.trace.add(self._sample(stamp, x, y, theta, v, floor))
         if self._last_xy is not None:
             self.path_length_m += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
         self._last_xy = (x, y)
+
+    def _sample(
+        self, t: float, x: float, y: float, theta: float, v: float, floor: str
+    ) -> dict[str, Any]:
+        clearance = None if self._clearance is None else round(self._clearance, 3)
+        return {
+            "t": round(t, 3),
+            "x": round(x, 3),
+            "y": round(y, 3),
+            "theta": round(theta, 3),
+            "floor": floor,
+            "speed": round(v, 3),
+            "clearance": clearance,
+        }
 
     def on_pose(self, stamp: float, x: float, y: float, theta: float) -> None:
         """A pose estimate: compared with the ground truth of the same tick."""
@@ -201,6 +266,8 @@ class Recorder:
             ],
             "events": self.events,
             "actions": self.actions,
+            "trace": self.trace.rows(),
+            "trace_every_s": self.trace.every_s,
         }
 
 

@@ -210,7 +210,7 @@ class MissionRun:
         self.recorder.checkpoints.on_route(m.checkpoints, self.recorder.sim_time_s)
 
     def _on_truth(self, m: Odometry) -> None:
-        self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp)
+        self.recorder.on_truth(m.pose.x, m.pose.y, m.pose.theta, m.stamp, m.v, m.pose.floor)
         if not self.recorder.finished:
             self.recorder.checkpoints.on_truth(
                 m.stamp, m.pose.x, m.pose.y, m.pose.theta, m.v, m.pose.floor

@@ -194,7 +194,13 @@ def test_each_term_costs_the_same_in_both_evaluators(term: str) -> None:
     seqs[..., 0] = 0.4 + rng.normal(0, 0.15, (200, 21))
     seqs[..., 1] = np.cumsum(rng.normal(0, 0.15, (200, 21)), axis=1)
     for x, y, th in ((1.0, 0.1, 0.05), (5.0, 6.1, math.pi / 2)):
-        scan = lidar_scan(scene, x, y)
+        # the walls' scan (dropped: the map has them) and a box the map lacks, ahead left
+        c, s = math.cos(th), math.sin(th)
+        box = (
+            np.array([(x + 0.9 * c - 0.45 * s, y + 0.9 * s + 0.45 * c)])
+            + np.mgrid[0:0.2:0.05, 0:0.2:0.05].reshape(2, -1).T
+        )
+        scan = np.vstack([lidar_scan(scene, x, y), box])
         cost = {}
         for backend in BACKENDS:
             mpc = SamplingMPC(only(term, backend), RobotConfig())
@@ -346,24 +352,31 @@ def short_door_scene():
     v_ref = np.full(10, 0.2)
     v_ref[-1] = 0.0
     scene = replace(scene, path=path, v_ref=v_ref, start=(3.0, 0.0, 0.0))
-    return replace(scene, obstacles=lidar_scan(scene, 3.0, 0.0))
+    # the map the MPC gets lacks the door's wall: only the scan shows the jambs (scan
+    # points on mapped walls are left to the walls' field)
+    h, w = scene.occupied.shape
+    cx = scene.origin[0] + (np.arange(w) + 0.5) * RES
+    cy = scene.origin[1] + (np.arange(h) + 0.5) * RES
+    mapped = scene.occupied.copy()
+    mapped[np.ix_(np.abs(cy) < 1.0, (cx > 3.85) & (cx < 4.15))] = False
+    dist = (distance_transform_edt(~mapped) * RES).astype(np.float32)
+    return replace(scene, dist=dist, obstacles=lidar_scan(scene, 3.0, 0.0))
 
 
 @pytest.mark.parametrize("selection", ["mppi", "cluster"])
 def test_starts_through_a_door_just_ahead(selection: str) -> None:
     """Near the jambs every step costs clearance; with progress charged only at the
     horizon's end, waiting first and hurrying later was cheaper than going now, and as the
-    horizon receded the chair dithered before the door for ever."""
+    horizon receded the chair dithered before the door for ever. (That old charge stalled
+    here while the jambs' scan points were counted twice, in the LiDAR field as well as the
+    walls'; since mapped points are left to the walls' field it no longer does, so the
+    test keeps only the running charge's success.)"""
     trace: list = []
     cfg = MPCConfig(selection=selection, **ONE)
     result = closed_loop(cfg, short_door_scene(), period_s=0.1, max_time_s=20.0, trace=trace)
     assert result["state"] == "arrived"
     assert result["min_clearance_m"] > 0.0
     assert min(row[3] for row in trace) > -0.05  # no backing off before the door
-    stalled = closed_loop(
-        replace(cfg, progress_running=0.0), short_door_scene(), period_s=0.1, max_time_s=20.0
-    )
-    assert stalled["state"] == "following"  # the old end-only charge: still before the door
 
 
 def test_cluster_selection_also_follows_the_l() -> None:
