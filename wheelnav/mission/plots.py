@@ -275,7 +275,7 @@ def _mark_ends(ax: Axes, trace: list[dict[str, Any]], floor: str) -> None:
 
 
 def _draw_speed(ax: Axes, trace: list[dict[str, Any]], crossings: list[Crossing]) -> None:
-    ax.plot([s["t"] for s in trace], [s["speed"] for s in trace], color=PATH_COLOUR, lw=1.2)
+    ax.plot([s["t"] for s in trace], [s["speed"] for s in trace], color=PATH_COLOUR, lw=1.5)
     ax.axhline(0.0, color="black", lw=0.5)
     _mark_crossings(ax, crossings, label=True)
     _mark_floor_changes(ax, trace)
