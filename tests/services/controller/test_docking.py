@@ -161,3 +161,47 @@ def test_a_turn_on_the_spot_goes_the_other_way_round_when_a_corner_would_sweep_a
     clear = Docker(DOCK, fp, 0.05)
     clear.set_goal(0.0, 0.0, math.pi / 2)
     assert clear.step(0.0, 0.0, 0.0, obstacles=np.zeros((0, 2))).w > 0  # the short way
+
+
+def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> None:
+    """Campaign b4.m07: the room between two doors in series is 2.08 x 2.0 m; from the
+    first door's exit pose to the second door's approach pose (0.8 m to the right, facing
+    the same way) neither pose leaves room to turn on the spot, and the safety checks held
+    every turn-drive-turn: the chair stood until the recoveries gave up. Here the docker
+    runs with those same safety checks on the room's points."""
+    from services.controller.safety import guard
+    from tests.services.controller.test_manoeuvre import series_room
+
+    robot, cfg = RobotConfig(), ControllerConfig()
+    occ, (ox, oy) = series_room()
+    r, c = np.nonzero(occ)
+    walls = np.column_stack((ox + (c + 0.5) * 0.05, oy + (r + 0.5) * 0.05))
+    docker = Docker(DOCK, robot.footprint, robot.side_margin_m)
+    docker.set_goal(1.19, 0.53, 0.0)
+    x, y, th, v, w = 1.01, 1.33, 0.0, 0.0, 0.0
+    dt, t, nearest = 1.0 / RATE, 0.0, math.inf
+    while t < 90.0:
+        near = walls[np.hypot(walls[:, 0] - x, walls[:, 1] - y) < 1.5]
+        cmd = docker.step(x, y, th, obstacles=near)
+        if cmd.state == "arrived":
+            break
+        dx, dy = near[:, 0] - x, near[:, 1] - y
+        local = np.column_stack(
+            (dx * math.cos(th) + dy * math.sin(th), -dx * math.sin(th) + dy * math.cos(th), 0 * dx)
+        )
+        cv, cw, _ = guard(cmd.v, cmd.w, cmd.state, t, True, t, local, robot, cfg, 1.0)
+        v += (cv - v) * dt / LAG_S
+        w += (cw - w) * dt / LAG_S
+        x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
+        fp = robot.footprint
+        body = local[:, :2]
+        gap = np.hypot(
+            np.maximum(np.maximum(-fp.rear - body[:, 0], body[:, 0] - fp.front), 0),
+            np.maximum(np.abs(body[:, 1]) - fp.width / 2, 0),
+        )
+        nearest = min(nearest, float(gap.min()) - 0.025)  # cell centres: half a cell off
+        t += dt
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    assert math.hypot(x - 1.19, y - 0.53) <= DOCK.position_tolerance_m
+    assert abs(wrap_angle(th)) <= DOCK.heading_tolerance_rad + 1e-3
+    assert nearest > 0.0  # never touched a wall

@@ -1,0 +1,239 @@
+"""Manoeuvres for tight rooms: turns on the spot and straight drives, forwards or back.
+
+Docking goes from one pose to another by turning to face the target, driving to it and
+turning to the goal heading. In the room between two doors in series that often does not
+fit: campaign b4.m07 has a 2.0 x 2.0 m room where neither the first door's exit pose nor
+the second door's approach pose leaves room to turn on the spot (the footprint's corners
+reach 0.83 m from the rear axle), so the chair stood held by its own safety checks. A
+person would drive to the middle of the room, turn there, and drive on.
+
+:func:`plan_manoeuvre` finds such a sequence: a hybrid A* search over (x, y, heading),
+whose moves are a turn on the spot by one heading step and a straight step forwards or
+backwards, every pose checked against the walls and points grown by a margin; each
+expanded pose also tries the plain turn-drive-turn to the goal, which ends the search
+as soon as it fits. The answer is the list of poses where the motion changes (turn,
+forwards, backwards), each reachable from the one before by one straight drive or one
+turn on the spot, so a docking controller can take them one by one. Pure computation.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import binary_dilation
+
+from shared.geometry import wrap_angle
+
+HEADINGS = 72  # heading steps in a full turn (5 degrees each)
+TURN, FORWARD, BACK = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class ManoeuvreBody:
+    """The chair as the search checks it: its rectangle around the rear axle, grown by
+    ``margin_m`` on every side."""
+
+    front: float
+    rear: float
+    width: float
+    margin_m: float
+
+
+@dataclass(frozen=True)
+class ManoeuvreCosts:
+    """What the search minimises: metres driven (backwards costs ``reverse_factor`` times
+    more), ``turn_m_per_rad`` per radian turned on the spot, and ``switch_m`` for each
+    change between turning, driving forwards and driving backwards (each is a stop)."""
+
+    reverse_factor: float = 1.5
+    turn_m_per_rad: float = 0.3
+    switch_m: float = 0.5
+    max_expansions: int = 200_000
+
+
+class Room:
+    """Where the chair may stand in a window of the floor: one grid of free rear-axle
+    cells per heading step (the footprint grown by the margin and half a cell diagonal,
+    since a pose may lie anywhere in its cell)."""
+
+    def __init__(
+        self,
+        occupied: np.ndarray,
+        resolution: float,
+        origin: tuple[float, float],
+        body: ManoeuvreBody,
+    ) -> None:
+        self.res = float(resolution)
+        self.ox, self.oy = float(origin[0]), float(origin[1])
+        self.shape = occupied.shape
+        grow = body.margin_m + self.res * math.sqrt(0.5)
+        self.free = np.empty((HEADINGS, *occupied.shape), dtype=bool)
+        for k in range(HEADINGS):
+            kernel = _footprint_kernel(body, grow, 2 * math.pi * k / HEADINGS, self.res)
+            # the footprint at (r, c) covers (r, c) + offset: blocked where any is occupied
+            self.free[k] = ~binary_dilation(occupied, structure=kernel[::-1, ::-1])
+        self.free[:, 0, :] = self.free[:, -1, :] = False  # beyond the window is unknown
+        self.free[:, :, 0] = self.free[:, :, -1] = False
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        return int(math.floor((y - self.oy) / self.res)), int(math.floor((x - self.ox) / self.res))
+
+    def fits(self, x: float, y: float, k: int) -> bool:
+        """Whether the chair at (x, y) with heading step ``k`` is clear."""
+        r, c = self.cell(x, y)
+        h, w = self.shape
+        return 0 <= r < h and 0 <= c < w and bool(self.free[k % HEADINGS, r, c])
+
+    def turn_fits(self, x: float, y: float, k0: int, k1: int) -> bool:
+        """Whether turning on the spot from step ``k0`` to ``k1`` (the short way) is clear."""
+        d = (k1 - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2
+        step = 1 if d >= 0 else -1
+        return all(self.fits(x, y, k0 + i * step) for i in range(abs(d) + 1))
+
+    def drive_fits(self, x0: float, y0: float, x1: float, y1: float, k: int) -> bool:
+        """Whether driving straight from (x0, y0) to (x1, y1) with heading step ``k`` is clear."""
+        n = max(1, math.ceil(math.hypot(x1 - x0, y1 - y0) / (self.res / 2)))
+        return all(
+            self.fits(x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * i / n, k) for i in range(n + 1)
+        )
+
+
+def _footprint_kernel(body: ManoeuvreBody, grow: float, theta: float, res: float) -> np.ndarray:
+    """Cell offsets (a boolean kernel centred on the rear axle's cell) that the rectangle
+    grown by ``grow`` covers at heading ``theta``."""
+    reach = math.hypot(max(body.front, body.rear) + grow, body.width / 2 + grow) + res
+    n = int(math.ceil(reach / res))
+    d = np.arange(-n, n + 1) * res
+    gx, gy = np.meshgrid(d, d)  # rows are y, columns x
+    c, s = math.cos(theta), math.sin(theta)
+    # cell squares near the rectangle: test the cell centre against the rectangle grown
+    # by half a cell diagonal more, so every cell the rectangle touches is taken
+    half = res * math.sqrt(0.5)
+    bx, by = c * gx + s * gy, -s * gx + c * gy
+    return (
+        (bx >= -body.rear - grow - half)
+        & (bx <= body.front + grow + half)
+        & (np.abs(by) <= body.width / 2 + grow + half)
+    )
+
+
+def heading_step(theta: float) -> int:
+    """The heading step nearest ``theta``."""
+    return int(round(wrap_angle(theta) / (2 * math.pi) * HEADINGS)) % HEADINGS
+
+
+def step_heading(k: int) -> float:
+    return wrap_angle(2 * math.pi * (k % HEADINGS) / HEADINGS)
+
+
+def simple_manoeuvre(
+    room: Room, start: tuple[float, float, float], goal: tuple[float, float, float]
+) -> list[tuple[float, float, float]] | None:
+    """Turn to face the goal's position (or turn away from it to back up to it), drive
+    there, turn to the goal heading: the poses after each part, or None if neither fits."""
+    x0, y0, t0 = start
+    x1, y1, t1 = goal
+    k0, kg = heading_step(t0), heading_step(t1)
+    dist = math.hypot(x1 - x0, y1 - y0)
+    if dist < room.res:
+        return [(x0, y0, t1)] if room.turn_fits(x0, y0, k0, kg) else None
+    face = math.atan2(y1 - y0, x1 - x0)
+    for drive in (face, wrap_angle(face + math.pi)):
+        k = heading_step(drive)
+        if (
+            room.turn_fits(x0, y0, k0, k)
+            and room.drive_fits(x0, y0, x1, y1, k)
+            and room.turn_fits(x1, y1, k, kg)
+        ):
+            return [(x0, y0, drive), (x1, y1, drive), (x1, y1, t1)]
+    return None
+
+
+def plan_manoeuvre(
+    room: Room,
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    costs: ManoeuvreCosts | None = None,
+) -> list[tuple[float, float, float]] | None:
+    """The poses (x, y, theta) where the motion changes, from ``start`` to ``goal``: each
+    reached from the one before by one turn on the spot or one straight drive, the last
+    at the goal heading within one cell of its position (a docking controller's final
+    stage takes out the rest). None if no way is found within ``costs.max_expansions``
+    (or the start or goal does not fit)."""
+    costs = costs or ManoeuvreCosts()
+    k0, kg = heading_step(start[2]), heading_step(goal[2])
+    if not room.fits(start[0], start[1], k0) or not room.fits(goal[0], goal[1], kg):
+        return None
+    direct = simple_manoeuvre(room, start, goal)
+    if direct is not None:
+        return direct
+    step = room.res
+    turn_cost = costs.turn_m_per_rad * 2 * math.pi / HEADINGS
+
+    def heuristic(x: float, y: float) -> float:
+        return math.hypot(goal[0] - x, goal[1] - y)
+
+    # a node: (x, y, k, mode); parents by key, keys by (row, col, k, mode)
+    first = (start[0], start[1], k0, TURN)
+    parent: dict[tuple, tuple | None] = {}
+    best: dict[tuple, float] = {}
+    node_of: dict[tuple, tuple] = {}
+    key0 = (*room.cell(start[0], start[1]), k0, TURN)
+    best[key0], parent[key0], node_of[key0] = 0.0, None, first
+    queue = [(heuristic(start[0], start[1]), 0.0, key0)]
+    expanded = 0
+    while queue and expanded < costs.max_expansions:
+        _, g, key = heapq.heappop(queue)
+        if g > best.get(key, math.inf):
+            continue
+        expanded += 1
+        x, y, k, mode = node_of[key]
+        tail = simple_manoeuvre(room, (x, y, step_heading(k)), goal)
+        if tail is not None:
+            return _poses(_chain(parent, node_of, key)) + tail
+        moves = [
+            (x, y, (k + 1) % HEADINGS, TURN, turn_cost),
+            (x, y, (k - 1) % HEADINGS, TURN, turn_cost),
+        ]
+        th = step_heading(k)
+        for sign, move_mode, factor in ((1.0, FORWARD, 1.0), (-1.0, BACK, costs.reverse_factor)):
+            moves.append(
+                (
+                    x + sign * step * math.cos(th),
+                    y + sign * step * math.sin(th),
+                    k,
+                    move_mode,
+                    step * factor,
+                )
+            )
+        for nx, ny, nk, nmode, cost in moves:
+            if not room.fits(nx, ny, nk):
+                continue
+            ng = g + cost + (costs.switch_m if nmode != mode and key != key0 else 0.0)
+            nkey = (*room.cell(nx, ny), nk, nmode)
+            if ng < best.get(nkey, math.inf):
+                best[nkey], parent[nkey], node_of[nkey] = ng, key, (nx, ny, nk, nmode)
+                heapq.heappush(queue, (ng + heuristic(nx, ny), ng, nkey))
+    return None
+
+
+def _chain(parent: dict, node_of: dict, key: tuple) -> list[tuple]:
+    out = []
+    while key is not None:
+        out.append(node_of[key])
+        key = parent[key]
+    return out[::-1]
+
+
+def _poses(nodes: list[tuple]) -> list[tuple[float, float, float]]:
+    """The poses where the mode changes along a chain of nodes, and its last one."""
+    out = []
+    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
+        if a[3] != b[3] and a is not nodes[0]:
+            out.append((a[0], a[1], step_heading(a[2])))
+    last = nodes[-1]
+    out.append((last[0], last[1], step_heading(last[2])))
+    return out
