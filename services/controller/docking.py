@@ -17,6 +17,14 @@ lag. Stages:
   manoeuvre started that close): turning away to remove it would cost two more turns
   for a few centimetres that the pass's pure pursuit takes out anyway.
 
+When the chair stands still for ``STUCK_S`` while commanded to move (the safety checks
+hold it: in the room between two doors in series, 2 x 2 m, there is no room to turn at
+either door's pose) and turn-drive-turn from there does not fit the room the LiDAR points
+show, the docker plans a manoeuvre (:mod:`services.controller.manoeuvre`: turns on the
+spot where the room allows, straight drives forwards and back between them) and docks
+through its poses one by one, each within ``VIA_TOLERANCE_M`` and ``VIA_HEADING_RAD``,
+before the goal itself. Only then: the search costs a second or two.
+
 The move stage looks at the LiDAR points it is given: driving to a target 0.3 m away by
 turning to face it can put the front into a wall a few centimetres beyond it. When the
 footprint at the target, facing the way it would drive, holds a point, it drives the
@@ -35,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.controller.command import Command
+from services.controller.manoeuvre import ManoeuvreBody, Room, plan_manoeuvre
 from shared.config import ControllerConfig, Footprint, RobotConfig
 from shared.geometry import angle_between, in_footprint, turn_closes_in, wrap_angle
 
@@ -44,6 +53,14 @@ MIN_TURN = 0.08  # rad/s
 LEAVE_FACTOR = 2.0  # the final stage starts over if the error grows past this x near_m
 SWITCH_RAD = math.radians(20)  # hysteresis of the forwards / backwards choice
 SWEEP_RAD = math.radians(15)  # a turn on the spot looks this far ahead for its corners
+STUCK_S = 1.5  # commanded to move, not moving this long: plan a manoeuvre
+STUCK_M, STUCK_RAD = 0.01, math.radians(1)  # what counts as moving
+VIA_TOLERANCE_M = 0.03  # how near each pose of a manoeuvre is reached
+VIA_HEADING_RAD = math.radians(3)
+ROOM_CELL_M = 0.05  # the grid a manoeuvre is planned on
+ROOM_REACH_M = 1.5  # how far round the pose and the goal the room is taken from the points
+PLAN_SLACK_M = 0.03  # a manoeuvre keeps this much more than the margin: poses are reached
+# within VIA_TOLERANCE_M, and the safety checks must never hold one of its turns
 
 
 @dataclass
@@ -92,6 +109,12 @@ class Docker:
         self._turn_sign = 0.0  # a turn on the spot the long way round, kept until aligned
         self._pose = (0.0, 0.0, 0.0)
         self._obstacles: np.ndarray | None = None
+        self._target: tuple[float, float, float] | None = None  # the goal behind a manoeuvre
+        self._via: list[tuple[float, float, float]] = []
+        self._planned = False
+        self._still_s = 0.0  # commanded to move and not moving, since _still_at
+        self._still_at: tuple[float, float, float] | None = None
+        self._tol, self._tol_heading = limits.position_tolerance_m, limits.heading_tolerance_rad
 
     @property
     def active(self) -> bool:
@@ -99,17 +122,72 @@ class Docker:
 
     def set_goal(self, x: float, y: float, heading: float, max_speed: float | None = None) -> None:
         """Dock at (x, y) facing ``heading``; ``max_speed`` caps the speed (idle motion)."""
+        self._target, self._via, self._planned = (x, y, heading), [], False
+        self._still_s, self._still_at = 0.0, None
+        self._aim(
+            x, y, heading, self.limits.position_tolerance_m, self.limits.heading_tolerance_rad
+        )
+        self._cap = self.limits.max_speed if max_speed is None else max_speed
+
+    def _aim(self, x: float, y: float, heading: float, tol: float, tol_heading: float) -> None:
+        """Start docking at (x, y, heading) within ``tol`` and ``tol_heading``."""
         self.goal = (x, y, heading)
+        self._tol, self._tol_heading = tol, tol_heading
         self.stage = "start"
         self._start_error = -1.0
         self._arrived = False
         self._backwards: bool | None = None
         self._turn_sign = 0.0
         self._straight = False
-        self._cap = self.limits.max_speed if max_speed is None else max_speed
 
     def clear(self) -> None:
         self.goal = None
+        self._target, self._via = None, []
+
+    def _stuck(self, x: float, y: float, theta: float, period_s: float) -> bool:
+        """True once the pose has not moved for ``STUCK_S`` while the goal is not reached
+        (the last command asked for motion: the safety checks hold it)."""
+        ref = self._still_at
+        if ref is None or (
+            math.hypot(x - ref[0], y - ref[1]) > STUCK_M
+            or abs(wrap_angle(theta - ref[2])) > STUCK_RAD
+            or self._arrived
+        ):
+            self._still_at, self._still_s = (x, y, theta), 0.0
+            return False
+        self._still_s += period_s
+        return self._still_s >= STUCK_S
+
+    def _plan(self, x: float, y: float, theta: float, obstacles: np.ndarray | None) -> None:
+        """Where turn-drive-turn to the goal does not fit the room the points show, dock
+        through a manoeuvre's poses first (none found: dock as usual)."""
+        self._planned = True
+        fp, goal = self.footprint, self._target
+        if fp is None or goal is None or obstacles is None or len(obstacles) == 0:
+            return
+        if math.hypot(goal[0] - x, goal[1] - y) <= self.limits.position_tolerance_m:
+            return
+        lo = np.minimum((x, y), goal[:2]) - ROOM_REACH_M
+        hi = np.maximum((x, y), goal[:2]) + ROOM_REACH_M
+        shape = np.ceil((hi - lo) / ROOM_CELL_M).astype(int)
+        pts = np.asarray(obstacles, dtype=float)[:, :2]
+        cells = np.floor((pts - lo) / ROOM_CELL_M).astype(int)
+        inside = (cells >= 0).all(axis=1) & (cells < shape).all(axis=1)
+        occupied = np.zeros((shape[1], shape[0]), dtype=bool)
+        occupied[cells[inside, 1], cells[inside, 0]] = True
+        origin = (float(lo[0]), float(lo[1]))
+        poses = None
+        # with slack first; a chair held by the safety checks may stand nearer than that
+        for margin in (self.margin_m + PLAN_SLACK_M, self.margin_m, self.margin_m / 2):
+            body = ManoeuvreBody(fp.front, fp.rear, fp.width, margin)
+            poses = plan_manoeuvre(Room(occupied, ROOM_CELL_M, origin, body), (x, y, theta), goal)
+            if poses is not None:
+                break
+        if poses is None:
+            return
+        self._via = [p for p in poses[:-1] if math.hypot(p[0] - x, p[1] - y) > 0 or p[2] != theta]
+        if self._via:
+            self._aim(*self._via.pop(0), VIA_TOLERANCE_M, VIA_HEADING_RAD)
 
     def step(
         self,
@@ -118,12 +196,16 @@ class Docker:
         theta: float,
         pose_fresh: bool = True,
         obstacles: np.ndarray | None = None,
+        period_s: float = 0.0,
     ) -> Command:
         """The command for pose (x, y, theta); zero when idle, arrived or the pose is stale.
-        ``obstacles`` (N, 2, map frame) are what the move stage keeps the footprint off."""
+        ``obstacles`` (N, 2, map frame) are what the move stage keeps the footprint off;
+        ``period_s`` since the last call (0: no manoeuvre when stuck)."""
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
         self._pose, self._obstacles = (x, y, theta), obstacles
+        if self._stuck(x, y, theta, period_s) and not self._planned and pose_fresh:
+            self._plan(x, y, theta, obstacles)
         lim = self.limits
         gx, gy, gth = self.goal
         ex, ey = gx - x, gy - y
@@ -141,13 +223,20 @@ class Docker:
         if self.stage == "start":  # close already: no need to drive towards it first
             self.stage = "final" if dist <= lim.near_m else "move"
         if self.stage == "move":
-            if dist > lim.position_tolerance_m:
+            if dist > self._tol:
                 moved = self._move(ex, ey, dist, theta, obstacles)
                 if isinstance(moved, tuple):
                     return Command(*moved, "following", progress, dist, 0.0)
                 self._straight = moved is None  # boxed in both ways: turn first, then along
             self.stage = "final"
         v, w, done = self._final(ex, ey, heading_err, gth)
+        if done and self.goal != self._target:  # a pose of the manoeuvre: on to the next
+            lim = self.limits
+            if self._via:
+                self._aim(*self._via.pop(0), VIA_TOLERANCE_M, VIA_HEADING_RAD)
+            else:
+                self._aim(*self._target, lim.position_tolerance_m, lim.heading_tolerance_rad)
+            return Command(0.0, 0.0, "following", progress, dist, 0.0)
         if done:
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
@@ -186,13 +275,13 @@ class Docker:
         lim = self.limits
         turn = lim.turn_gain * abs(heading_err)
         w = math.copysign(max(MIN_TURN, min(lim.max_turn, turn)), heading_err)
-        if abs(heading_err) > max(lim.heading_tolerance_rad, ALIGN_RAD / 2):
+        if abs(heading_err) > max(self._tol_heading, ALIGN_RAD / 2):
             return 0.0, self._turn(w), False
         self._turn_sign = 0.0
         along = ex * math.cos(goal_heading) + ey * math.sin(goal_heading)
-        if abs(along) > lim.position_tolerance_m:
+        if abs(along) > self._tol:
             return math.copysign(self._speed(abs(along)), along), lim.turn_gain * heading_err, False
-        if abs(heading_err) > lim.heading_tolerance_rad:
+        if abs(heading_err) > self._tol_heading:
             return 0.0, w, False
         return 0.0, 0.0, True
 

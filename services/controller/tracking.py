@@ -146,7 +146,7 @@ class Tracker:
     ) -> Command:
         """The command for this cycle (zero when the pose is stale or everything collides)."""
         if self.docker.active:
-            return self.docker.step(x, y, theta, fresh, obstacles)
+            return self.docker.step(x, y, theta, fresh, obstacles, period_s)
         if not self.use_mpc:
             return self.pursuit.step(x, y, theta, fresh)
         if not fresh:

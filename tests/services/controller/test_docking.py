@@ -181,8 +181,8 @@ def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> Non
     x, y, th, v, w = 1.01, 1.33, 0.0, 0.0, 0.0
     dt, t, nearest = 1.0 / RATE, 0.0, math.inf
     while t < 90.0:
-        near = walls[np.hypot(walls[:, 0] - x, walls[:, 1] - y) < 1.5]
-        cmd = docker.step(x, y, th, obstacles=near)
+        near = walls[np.hypot(walls[:, 0] - x, walls[:, 1] - y) < 3.0]
+        cmd = docker.step(x, y, th, obstacles=near, period_s=dt)
         if cmd.state == "arrived":
             break
         dx, dy = near[:, 0] - x, near[:, 1] - y
