@@ -174,7 +174,8 @@ def _correct(
     cp, name: str, p: EntryParams, clock, record, reach_m: float = 0.0
 ) -> py_trees.behaviour.Behaviour:
     """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances;
-    ``reach_m``: the leg it docks instead of following, whose drive adds to the limit."""
+    ``reach_m``: the leg it docks instead of following, whose drive (and a manoeuvre in a
+    tight room, ``navigator.manoeuvre_allowance_s``) adds to the limit."""
     a, nav = cp.approach, p.nav
     dock = DockAt(
         f"Correct {cp.id}",
@@ -189,6 +190,8 @@ def _correct(
         nav.correction_stall_s,
     )
     limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
+    if reach_m > 0:
+        limit += nav.manoeuvre_allowance_s
     return Timeout(name, dock, limit, clock, record)
 
 

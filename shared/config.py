@@ -364,6 +364,9 @@ class NavigatorConfig:
     # doors in series: a nearly straight leg from a door's exit to the next checkpoint no
     # longer than this is docked (turn, drive, turn), as one passage with both doors
     series_reach_m: float = field(default=2.5, metadata=check(_non_negative))
+    # a leg docked instead of followed may need a manoeuvre in a tight room (turns where
+    # the room allows, drives forwards and back): its Phase 0 limit allows this much more
+    manoeuvre_allowance_s: float = field(default=25.0, metadata=check(_non_negative))
     idle_motion: bool = True
     idle_speed: float = field(default=0.05, metadata=check(_positive))
     idle_amplitude_m: float = field(default=0.12, metadata=check(_positive))

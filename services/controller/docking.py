@@ -19,11 +19,12 @@ lag. Stages:
 
 When the chair stands still for ``STUCK_S`` while commanded to move (the safety checks
 hold it: in the room between two doors in series, 2 x 2 m, there is no room to turn at
-either door's pose) and turn-drive-turn from there does not fit the room the LiDAR points
-show, the docker plans a manoeuvre (:mod:`services.controller.manoeuvre`: turns on the
-spot where the room allows, straight drives forwards and back between them) and docks
-through its poses one by one, each within ``VIA_TOLERANCE_M`` and ``VIA_HEADING_RAD``,
-before the goal itself. Only then: the search costs a second or two.
+either door's pose), or a turn on the spot the short way would sweep into a point, the
+docker plans a manoeuvre in the room its LiDAR points show
+(:mod:`services.controller.manoeuvre`: turn-drive-turn where that fits, else turns where
+the room allows and straight drives forwards and back between them) and docks through
+its poses one by one, each within ``VIA_TOLERANCE_M`` and ``VIA_HEADING_RAD``, before
+the goal itself. Only then: the search costs a second or two.
 
 The move stage looks at the LiDAR points it is given: driving to a target 0.3 m away by
 turning to face it can put the front into a wall a few centimetres beyond it. When the
@@ -112,6 +113,7 @@ class Docker:
         self._target: tuple[float, float, float] | None = None  # the goal behind a manoeuvre
         self._via: list[tuple[float, float, float]] = []
         self._planned = False
+        self._cramped = False  # a turn the short way would sweep into a point
         self._still_s = 0.0  # commanded to move and not moving, since _still_at
         self._still_at: tuple[float, float, float] | None = None
         self._tol, self._tol_heading = limits.position_tolerance_m, limits.heading_tolerance_rad
@@ -123,7 +125,7 @@ class Docker:
     def set_goal(self, x: float, y: float, heading: float, max_speed: float | None = None) -> None:
         """Dock at (x, y) facing ``heading``; ``max_speed`` caps the speed (idle motion)."""
         self._target, self._via, self._planned = (x, y, heading), [], False
-        self._still_s, self._still_at = 0.0, None
+        self._still_s, self._still_at, self._cramped = 0.0, None, False
         self._aim(
             x, y, heading, self.limits.position_tolerance_m, self.limits.heading_tolerance_rad
         )
@@ -204,7 +206,11 @@ class Docker:
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
         self._pose, self._obstacles = (x, y, theta), obstacles
-        if self._stuck(x, y, theta, period_s) and not self._planned and pose_fresh:
+        if (
+            (self._stuck(x, y, theta, period_s) or self._cramped)
+            and not self._planned
+            and pose_fresh
+        ):
             self._plan(x, y, theta, obstacles)
         lim = self.limits
         gx, gy, gth = self.goal
@@ -291,9 +297,11 @@ class Docker:
         leaf on one side in the small room between two doors); kept until aligned."""
         if self._turn_sign:
             return math.copysign(abs(w), self._turn_sign)
-        if self._sweeps(w) and not self._sweeps(-w):
-            self._turn_sign = -math.copysign(1.0, w)
-            return -w
+        if self._sweeps(w):
+            self._cramped = True  # the short way is held: a manoeuvre may be needed
+            if not self._sweeps(-w):
+                self._turn_sign = -math.copysign(1.0, w)
+                return -w
         return w
 
     def _sweeps(self, w: float) -> bool:
