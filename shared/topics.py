@@ -109,7 +109,7 @@ TOPICS: tuple[Topic, ...] = (
         m.Odometry,
         "pub",
         "sim",
-        "evaluation only (mission report)",
+        "evaluation only (mission report, viz)",
         "true pose; no navigation service may listen",
     ),
     Topic(
@@ -118,7 +118,7 @@ TOPICS: tuple[Topic, ...] = (
         m.SimStatus,
         "pub",
         "sim",
-        "evaluation only (mission report)",
+        "evaluation only (mission report, viz)",
         "collisions and clearance",
     ),
     Topic(

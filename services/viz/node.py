@@ -1,18 +1,21 @@
 """Viz service: streams the fleet's topics into a rerun recording or viewer.
 
-Subscribes to pose, ground truth, scans, path, commands and mission status, and logs
-them under the entity tree of services/viz/rerun_log.py on the ``sim`` timeline. Records to
-an ``.rrd`` file (``--save``), serves a viewer (``--serve``), or connects to a running
-viewer (``--viewer URL``).
+Subscribes to pose, ground truth, scans, path, commands, clearance and mission status, and
+logs them under the entity tree of services/viz/rerun_log.py on the ``sim`` timeline.
+Records to an ``.rrd`` file (``--save``), serves a viewer (``--serve``), or connects to a
+running viewer (``--viewer URL``); each of them gets the layout of services/viz/blueprint.py.
 """
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 
 import rerun as rr
 
 from services.viz import rerun_log
+from services.viz.blueprint import fleet_blueprint
+from services.viz.fleet_log import FleetLog
 from shared.messages import (
     NavStatus,
     Odometry,
@@ -20,11 +23,12 @@ from shared.messages import (
     PointCloud,
     PoseEstimate,
     RouteReply,
+    SimStatus,
     TreeSnapshot,
     Twist,
 )
 from shared.service import Service
-from shared.site import SiteError, load_site
+from shared.site import Site, SiteError, load_site
 
 NAME = "viz"
 
@@ -36,53 +40,57 @@ def _arguments(parser: argparse.ArgumentParser) -> None:
     sink.add_argument("--viewer", metavar="URL", help="connect to a running rerun viewer")
 
 
+def open_sink(args: argparse.Namespace) -> str | None:
+    """Start the recording and its one sink, each given the fleet's layout so that a viewer
+    opens on it (a user's own changes to the layout win until they reset it); the gRPC
+    address when serving."""
+    rr.init("wheelnav", spawn=False)
+    layout = fleet_blueprint()
+    if args.save:
+        rr.save(args.save, default_blueprint=layout)
+    elif args.serve:
+        uri = rr.serve_grpc(default_blueprint=layout)
+        rr.serve_web_viewer(connect_to=uri)
+        return uri
+    elif args.viewer:
+        rr.connect_grpc(args.viewer, default_blueprint=layout)
+    else:
+        rr.spawn(default_blueprint=layout)
+    return None
+
+
+def _site(svc: Service) -> tuple[Site | None, str]:
+    """The site and the floor the chair starts on (no site: no map, the rest is logged)."""
+    try:
+        site = load_site(svc.cfg.site)
+        s = svc.cfg.sim.start
+        return site, site.start_pose(s.place, s.x, s.y, s.theta, s.floor)[3]
+    except SiteError as exc:
+        svc.log.warning("no map to show: %s", exc)
+        return None, ""
+
+
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv, _arguments) as svc:
-        cfg, keys, bus, args = svc.cfg, svc.keys, svc.bus, svc.args
-        rr.init("wheelnav", spawn=False)
-        if args.save:
-            rr.save(args.save)
-        elif args.serve:
-            rr.serve_web_viewer()
-        elif args.viewer:
-            rr.connect_grpc(args.viewer)
-        else:
-            rr.spawn()
-        try:
-            site = load_site(cfg.site)
-            s = cfg.sim.start
-            floor = site.start_pose(s.place, s.x, s.y, s.theta, s.floor)[3]
-            rerun_log.log_site(site, site.floor(floor))
-        except SiteError as exc:
-            svc.log.warning("no map to show: %s", exc)
-        latest: dict[str, PoseEstimate] = {}
-        clock = {"t": 0.0}
+        keys, bus = svc.keys, svc.bus
+        uri = open_sink(svc.args)
+        if uri:
+            svc.log.info("serving the recording on %s", uri)
+        site, floor = _site(svc)
+        log = FleetLog(svc.cfg.robot.footprint, site, floor)
 
-        def on_pose(msg: PoseEstimate) -> None:
-            latest["pose"] = msg
-            clock["t"] = msg.stamp
-            rerun_log.log_pose(msg)
+        def sub(key: str, kind: type, handler: Callable[..., None]) -> None:
+            bus.subscribe(svc.declare("subscribes", key), kind, handler)
 
-        bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, on_pose)
-        bus.subscribe(svc.declare("subscribes", keys.ground_truth), Odometry, rerun_log.log_truth)
-        bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, rerun_log.log_command)
-        bus.subscribe(
-            svc.declare("subscribes", keys.scan),
-            PointCloud,
-            lambda m: rerun_log.log_scan(m, latest.get("pose")),
-        )
-        bus.subscribe(
-            svc.declare("subscribes", keys.path), Path, lambda m: rerun_log.log_path(m, clock["t"])
-        )
-        bus.subscribe(
-            svc.declare("subscribes", keys.nav_status), NavStatus, rerun_log.log_nav_status
-        )
-        bus.subscribe(svc.declare("subscribes", keys.tree), TreeSnapshot, rerun_log.log_tree)
-        bus.subscribe(
-            svc.declare("subscribes", keys.nav_route),
-            RouteReply,
-            lambda m: rerun_log.log_route(m, clock["t"]),
-        )
+        sub(keys.pose, PoseEstimate, log.on_pose)
+        sub(keys.ground_truth, Odometry, log.on_truth)
+        sub(keys.sim_status, SimStatus, rerun_log.log_sim_status)
+        sub(keys.cmd_vel, Twist, rerun_log.log_command)
+        sub(keys.scan, PointCloud, log.on_scan)
+        sub(keys.path, Path, log.on_path)
+        sub(keys.nav_status, NavStatus, rerun_log.log_nav_status)
+        sub(keys.tree, TreeSnapshot, rerun_log.log_tree)
+        sub(keys.nav_route, RouteReply, log.on_route)
         svc.wait()
         rr.disconnect()
 
