@@ -52,6 +52,7 @@ class ManoeuvreCosts:
     turn_m_per_rad: float = 0.3
     switch_m: float = 0.5
     max_expansions: int = 200_000
+    goal_slack_m: float = 0.15  # a goal that does not fit: any pose this near it ends the search
 
 
 class Room:
@@ -161,12 +162,14 @@ def plan_manoeuvre(
     """The poses (x, y, theta) where the motion changes, from ``start`` to ``goal``: each
     reached from the one before by one turn on the spot or one straight drive, the last
     at the goal heading within one cell of its position (a docking controller's final
-    stage takes out the rest). None if no way is found within ``costs.max_expansions``
-    (or the start or goal does not fit)."""
+    stage takes out the rest). Where the goal itself does not fit (an approach pose a few
+    centimetres inside the margin), any pose within ``costs.goal_slack_m`` and one heading
+    step of it ends the search (a docking tolerance). A start that does not fit (the
+    safety checks hold the chair there) is left by moves that do. None if no way is found
+    within ``costs.max_expansions``."""
     costs = costs or ManoeuvreCosts()
     k0, kg = heading_step(start[2]), heading_step(goal[2])
-    if not room.fits(start[0], start[1], k0) or not room.fits(goal[0], goal[1], kg):
-        return None
+    reach = room.res if room.fits(goal[0], goal[1], kg) else costs.goal_slack_m
     direct = simple_manoeuvre(room, start, goal)
     if direct is not None:
         return direct
@@ -191,6 +194,9 @@ def plan_manoeuvre(
             continue
         expanded += 1
         x, y, k, mode = node_of[key]
+        near = math.hypot(goal[0] - x, goal[1] - y) < reach
+        if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= (reach > room.res):
+            return _poses(_chain(parent, node_of, key))  # there, within the reach
         tail = simple_manoeuvre(room, (x, y, step_heading(k)), goal)
         if tail is not None:
             return _poses(_chain(parent, node_of, key)) + tail

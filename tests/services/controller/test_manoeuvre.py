@@ -95,3 +95,18 @@ def test_a_goal_in_a_wall_or_out_of_reach_gives_none() -> None:
     boxed[:, 29:31] = True  # two closed halves
     small = Room(boxed, RES, (0.0, 0.0), ManoeuvreBody(0.3, 0.1, 0.3, 0.02))
     assert plan_manoeuvre(small, (0.9, 1.5, 0.0), (2.1, 1.5, 0.0)) is None
+
+
+def test_a_goal_too_near_a_wall_is_replaced_by_the_nearest_pose_that_fits() -> None:
+    """Campaign b2.m00: the second door's approach pose stood 5 cm from the tip of an open
+    leaf, inside the margin, and no manoeuvre was planned at all."""
+    occ, origin = series_room()
+    room = Room(occ, RES, origin, BODY)
+    goal = (1.19, 0.39, 0.0)  # the footprint 0.065 m above the room's bottom wall
+    assert not room.fits(*goal[:2], 0)
+    poses = plan_manoeuvre(room, (1.01, 1.33, 0.0), goal)
+    assert poses is not None
+    end = poses[-1]
+    assert 0 < math.hypot(end[0] - goal[0], end[1] - goal[1]) <= 0.15
+    assert abs(wrap_angle(end[2] - goal[2])) <= math.radians(5) + 1e-9
+    assert room.fits(end[0], end[1], round(end[2] / (2 * math.pi) * 72) % 72)
