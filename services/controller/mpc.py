@@ -10,9 +10,9 @@ The seed system's path-following controller, rebuilt without its weak points. Ea
    to the chair's speed and acceleration limits;
 3. score every rollout: cross-track distance, progress, heading, speed window, speed
    reference, turn effort, smoothness, goal approach, and the footprint's clearance from the
-   map's walls (a distance field) and from live LiDAR points (those not on a mapped wall);
-   a rollout whose footprint comes closer than ``safety_margin_m`` to either is colliding
-   and dropped (where the chair already stands that near, only nearer than now is);
+   map's walls (a distance field) and from live LiDAR points; a rollout whose footprint
+   comes closer than ``safety_margin_m`` to either is colliding and dropped (where the
+   chair already stands that near, only nearer than now is);
 4. select: MPPI (softmax-weighted mean) or the seed's rule (mean of the best-5 % cluster
    that holds the best sample); return the first input and keep the sequence.
 
@@ -320,7 +320,7 @@ class SamplingMPC:
         )
         s_exp = self._expected_progress(s_now)
         obs = obstacle_field(
-            self._off_the_map(obstacles),
+            obstacles,
             x,
             y,
             cfg.obstacle_resolution_m,
@@ -363,22 +363,6 @@ class SamplingMPC:
             s_wt=np.array([cfg.progress_running, (1.0 - cfg.progress_running) * cfg.steps]),
             weights=self._weights,
         )
-
-    def _off_the_map(self, obstacles: np.ndarray | None) -> np.ndarray | None:
-        """The LiDAR points that are not on a mapped wall (world frame, (M, 2)).
-
-        A point in a wall cell or in a cell beside one is already in the walls' field,
-        which reads half a cell diagonal low; stamped into the LiDAR field as well it would
-        read a whole diagonal low, and a gap the planner routes through (mapped furniture
-        0.125 m beside the chair each side) would be refused.
-        """
-        if obstacles is None or len(obstacles) == 0 or self._wall is None:
-            return obstacles
-        pts = np.asarray(obstacles, dtype=np.float64)[:, :2]
-        f = self._wall
-        on_wall = f.res * (1.0 - math.sqrt(0.5)) + 1e-4  # the reading of a cell beside a wall
-        reading = mpc_numpy.lookup(f, pts[:, 0].astype(np.float32), pts[:, 1].astype(np.float32))
-        return pts[reading > on_wall]
 
     def _clearance_now(self, f: Field | None, x: float, y: float, theta: float) -> float:
         """The footprint's reading in ``f`` where the chair stands (FAR without a field).
