@@ -57,6 +57,10 @@ from shared.config import ControllerConfig, MPCConfig, RobotConfig
 __all__ = ["Evaluation", "MPCConfig", "SamplingMPC", "footprint_points", "rollout_poses"]
 
 
+NEAR_SPEED = 0.1  # m/s: the fastest a cycle samples nearer than the margin (_threshold)
+NEAR_TURN = 0.3  # rad/s
+
+
 @dataclass
 class Evaluation:
     """Scores of explicit input sequences (see ``SamplingMPC.evaluate``)."""
@@ -328,7 +332,12 @@ class SamplingMPC:
             self._body,
             reach,
         )
-        thr = self._body.threshold
+        thr_w = self._threshold(self._wall, x, y, theta)
+        thr_o = self._threshold(obs, x, y, theta)
+        if min(thr_w, thr_o) < self._body.threshold:  # nearer than the margin: slowly
+            limits[1] = max(limits[1], -NEAR_SPEED)
+            limits[2] = min(limits[2], NEAR_SPEED)
+            limits[3] = min(limits[3], NEAR_TURN)
         params = np.array(
             [
                 s_now,
@@ -339,8 +348,8 @@ class SamplingMPC:
                 cfg.obstacle_influence_m,
                 cfg.v_window_min,
                 cfg.v_window_max,
-                min(thr, self._clearance_now(self._wall, x, y, theta)),
-                min(thr, self._clearance_now(obs, x, y, theta)),
+                thr_w,
+                thr_o,
             ]
         )
         return Scene(
@@ -364,14 +373,20 @@ class SamplingMPC:
             weights=self._weights,
         )
 
-    def _clearance_now(self, f: Field | None, x: float, y: float, theta: float) -> float:
-        """The footprint's reading in ``f`` where the chair stands (FAR without a field).
+    def _threshold(self, f: Field | None, x: float, y: float, theta: float) -> float:
+        """The reading in ``f`` below which a rollout collides.
 
-        A rollout collides when it reads less than the threshold or, where the chair
-        already stands nearer than that (beside an open leaf after a pass), less than it
-        reads now: it may move along or away, never nearer. Else every rollout would
-        collide from its first step and the chair could not leave.
+        The footprint's margin; but where the chair already stands nearer than that (beside
+        an open leaf after a pass), what it reads now: it may leave along or away, never
+        nearer. Else every rollout would collide from its first step and it could not
+        leave. The cycle then samples no faster than ``NEAR_SPEED`` and ``NEAR_TURN``: at
+        speed each cycle started a little nearer than the last predicted, and that ratchet
+        drove a corner into a wall at 0.5 m/s twice in the campaign (b6.m04, b9.m01).
         """
+        return min(self._body.threshold, self._clearance_now(f, x, y, theta))
+
+    def _clearance_now(self, f: Field | None, x: float, y: float, theta: float) -> float:
+        """The footprint's reading in ``f`` where the chair stands (FAR without a field)."""
         if f is None:
             return FAR
         c, s = math.cos(theta), math.sin(theta)

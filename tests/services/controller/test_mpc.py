@@ -268,6 +268,24 @@ def test_a_leaf_just_beside_the_chair_does_not_block_it_nor_come_nearer(backend:
     assert result["min_clearance_m"] >= 0.05
 
 
+def test_nearer_than_the_margin_it_moves_slowly_even_at_speed() -> None:
+    """Campaign b6.m04 and b9.m01: at 0.5 m/s a corner came within the margin of a wall;
+    each cycle then let the rollouts go anywhere not nearer than where the chair stood,
+    the chair (with its motor lag) ended each cycle a little nearer, and it touched the
+    wall. Within the margin the rollouts now sample no faster than 0.1 m/s."""
+    fp = RobotConfig().footprint
+    mpc = SamplingMPC(MPCConfig(**ONE), RobotConfig())
+    mpc.set_path(np.array([[0.0, 0.0], [6.0, 0.0]]), np.array([0.5, 0.5]))
+    xs = np.linspace(-0.6, 3.0, 73)
+    wall = np.c_[xs, np.full_like(xs, -(fp.width / 2 + 0.06))]  # 6 cm to the right
+    cmd = mpc.step(1.0, 0.0, 0.0, 0.5, 0.0, wall, 0.04)
+    assert cmd.state == "following"
+    assert np.abs(mpc._u[..., 0]).max() <= 0.1 + 1e-6  # every rollout slow
+    assert cmd.v < 0.5  # braking as hard as the acceleration limit allows
+    far = mpc.step(1.0, 0.5, 0.0, 0.5, 0.0, wall, 0.04)  # 0.56 m from it: full speed
+    assert far.v > 0.3
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_rollouts_respect_speed_and_acceleration_limits(backend: str) -> None:
     robot = RobotConfig()
