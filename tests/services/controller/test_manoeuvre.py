@@ -97,7 +97,7 @@ def test_a_goal_in_a_wall_or_out_of_reach_gives_none() -> None:
     assert plan_manoeuvre(small, (0.9, 1.5, 0.0), (2.1, 1.5, 0.0)) is None
 
 
-def test_a_goal_too_near_a_wall_is_replaced_by_the_nearest_pose_that_fits() -> None:
+def test_a_goal_too_near_a_wall_ends_the_search_within_a_docking_tolerance() -> None:
     """Campaign b2.m00: the second door's approach pose stood 5 cm from the tip of an open
     leaf, inside the margin, and no manoeuvre was planned at all."""
     occ, origin = series_room()
