@@ -4,9 +4,16 @@ Wire format: a msgpack map ``{"t": tag, "v": schema version, "d": {field: value}
 Nested messages are maps of their fields; numpy arrays are msgpack extension type 1
 holding ``[dtype string, shape, raw C-order bytes]`` (never Python lists).
 
-Every failure to decode (not msgpack, truncated, unknown tag, newer schema, missing or
-unknown field, wrong type or shape, non-finite number) raises :class:`DecodeError`
-with a one-line message naming the field, so a subscriber can log, count and go on.
+Every failure to decode (not msgpack, truncated, unknown tag, a schema version that is
+not an integer from 1 to this build's, missing or unknown field, wrong type or shape,
+non-finite number, a number outside its range, fields that disagree with each other)
+raises :class:`DecodeError` with a one-line message naming the field, so a subscriber can
+log, count and go on. Encoding runs the same checks (:class:`EncodeError`).
+
+The checks per field come from the type hints and field metadata of
+:mod:`shared.messages` (``range`` for numbers, ``dtype``/``shape``/``limit`` for arrays);
+the checks across fields are each class's :meth:`~shared.messages.Msg.validate`, run on
+every message built, nested ones included.
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ from typing import Any, TypeVar
 import msgpack
 import numpy as np
 
-from shared.messages import REGISTRY, Msg
+from shared.messages import DEFAULT_LIMIT, INT_LIMIT, MAX_TEXT, REGISTRY, Invalid, Msg
 
 _EXT_NDARRAY = 1
 T = TypeVar("T", bound=Msg)
@@ -70,6 +77,7 @@ def encode(msg: Msg) -> bytes:
     wire = _to_wire(msg)
     try:
         _check_fields(cls, wire, cls.TAG)
+        _validate(msg, cls.TAG)
     except DecodeError as exc:
         raise EncodeError(str(exc)) from None
     return msgpack.packb({"t": cls.TAG, "v": cls.VERSION, "d": wire}, default=_pack_ext)
@@ -130,7 +138,9 @@ def decode(payload: bytes, expected: type[T] | None = None) -> T:
         raise DecodeError(f"unknown message tag {tag!r}")
     if expected is not None and cls is not expected:
         raise DecodeError(f"expected {expected.TAG}, got {tag}")
-    if not isinstance(version, int) or version > cls.VERSION:
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise DecodeError(f"{tag} schema version {version!r}: expected an integer >= 1")
+    if version > cls.VERSION:
         raise DecodeError(
             f"{tag} schema version {version!r} is newer than this build's {cls.VERSION}"
         )
@@ -194,7 +204,7 @@ def _check_value(hint: Any, value: Any, path: str, meta: Any) -> Any:
             raise DecodeError(f"{path}: expected a number, got {type(value).__name__}")
         if not math.isfinite(value):
             raise DecodeError(f"{path}: not finite ({value})")
-        return float(value)
+        return _in_range(float(value), path, meta, DEFAULT_LIMIT)
     if hint is bool:
         if not isinstance(value, bool):
             raise DecodeError(f"{path}: expected true/false, got {type(value).__name__}")
@@ -202,16 +212,18 @@ def _check_value(hint: Any, value: Any, path: str, meta: Any) -> Any:
     if hint is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise DecodeError(f"{path}: expected an integer, got {type(value).__name__}")
-        return value
+        return _in_range(value, path, meta, INT_LIMIT)
     if hint is str:
         if not isinstance(value, str):
             raise DecodeError(f"{path}: expected text, got {type(value).__name__}")
+        if len(value) > MAX_TEXT:
+            raise DecodeError(f"{path}: text of {len(value)} characters (at most {MAX_TEXT})")
         return value
     if origin is list:
         if not isinstance(value, list):
             raise DecodeError(f"{path}: expected a list, got {type(value).__name__}")
         (item,) = typing.get_args(hint)
-        return [_check_value(item, v, f"{path}[{i}]", {}) for i, v in enumerate(value)]
+        return [_check_value(item, v, f"{path}[{i}]", meta) for i, v in enumerate(value)]
     if hint is np.ndarray:
         return _check_array(value, path, meta)
     if dataclasses.is_dataclass(hint):
@@ -219,6 +231,13 @@ def _check_value(hint: Any, value: Any, path: str, meta: Any) -> Any:
             raise DecodeError(f"{path}: expected a {hint.TAG} map, got {type(value).__name__}")
         return _build(hint, value, path)
     raise DecodeError(f"{path}: unsupported field type {hint!r}")
+
+
+def _in_range(value: float | int, path: str, meta: Any, limit: float) -> float | int:
+    lo, hi = meta.get("range", (-limit, limit))
+    if not lo <= value <= hi:
+        raise DecodeError(f"{path}: {value!r} is outside [{lo:g}, {hi:g}]")
+    return value
 
 
 def _check_array(value: Any, path: str, meta: Any) -> np.ndarray:
@@ -233,10 +252,25 @@ def _check_array(value: Any, path: str, meta: Any) -> np.ndarray:
         )
         if not ok:
             raise DecodeError(f"{path}: expected shape {shape}, got {value.shape}")
-    if value.dtype.kind == "f" and not np.isfinite(value).all():
-        raise DecodeError(f"{path}: contains non-finite values")
+    if value.dtype.kind in "fiu" and value.size:
+        limit = meta.get("limit") or DEFAULT_LIMIT
+        # one pass in the common case: NaN fails the comparison as well
+        if not (np.abs(value) <= limit).all():
+            if value.dtype.kind == "f" and not np.isfinite(value).all():
+                raise DecodeError(f"{path}: contains non-finite values")
+            worst = value.flat[int(np.argmax(np.abs(value)))].item()
+            raise DecodeError(f"{path}: value {worst!r} is outside [{-limit:g}, {limit:g}]")
     return value
 
 
+def _validate(msg: Msg, path: str) -> None:
+    try:
+        msg.validate()
+    except Invalid as exc:
+        raise DecodeError(f"{path}.{exc}") from None
+
+
 def _build(cls: type, data: dict[str, Any], path: str) -> Any:
-    return cls(**_check_fields(cls, data, path))
+    msg = cls(**_check_fields(cls, data, path))
+    _validate(msg, path)
+    return msg

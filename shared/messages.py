@@ -2,7 +2,10 @@
 
 Every type is a small dataclass with a wire tag (``TAG``) and a schema version
 (``VERSION``). The codec in :mod:`shared.codec` checks every field against the type
-hints below, so a message that decodes is a message the receiver can use.
+hints below, so a message that decodes is a message the receiver can use: every number
+is finite and inside its range (``num``: field metadata; a number without one still
+within ``±DEFAULT_LIMIT``), and :meth:`Msg.validate` checks the fields together (lengths
+that must agree, an order of two ticks). Encoding runs the same checks.
 
 Conventions:
     * ``stamp`` is time in seconds on the fleet clock (simulation time in the
@@ -14,7 +17,7 @@ Conventions:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field
 from enum import StrEnum
 from typing import ClassVar
 
@@ -37,9 +40,47 @@ def message(tag: str, version: int = 1):
     return wrap
 
 
-def array(dtype: str, shape: tuple[int | None, ...]):
-    """A dataclass field holding a numpy array of a fixed dtype and shape pattern."""
-    return field(metadata={"dtype": np.dtype(dtype), "shape": shape})
+# Ranges (inclusive) of the numbers on the wire: generous physical limits, there to refuse
+# nonsense (1e300 m/s, a coordinate beyond any building), not to judge a plan.
+DEFAULT_LIMIT = 1e12  # any number without a range of its own: |value| <= this
+STAMP = (0.0, 1e10)  # seconds: simulation time, or Unix time on a real chair
+COORD = (-1e6, 1e6)  # metres on a floor's map (and in a sensor frame)
+ANGLE = (-1e6, 1e6)  # radians (headings are usually wrapped; this only refuses nonsense)
+SPEED = (-100.0, 100.0)  # m/s, forward speed
+TURN = (-100.0, 100.0)  # rad/s
+LENGTH = (0.0, 1e6)  # metres, not negative
+SECONDS = (0.0, 1e10)  # a duration or a sum of them
+COUNT = (0, 2**53)  # a count or a tick
+INT_LIMIT = 2**53  # any integer without a range of its own: |value| <= this
+MAX_TEXT = 1_000_000  # characters in any text field
+
+
+def num(lo: float, hi: float, default: object = MISSING):
+    """A number field (float or int) whose value must lie in ``[lo, hi]``."""
+    return field(default=default, metadata={"range": (lo, hi)})
+
+
+def array(
+    dtype: str, shape: tuple[int | None, ...], limit: float | None = None, default_factory=None
+):
+    """A dataclass field holding a numpy array of a fixed dtype and shape pattern; with
+    ``limit`` every element must satisfy ``|value| <= limit``."""
+    meta = {"dtype": np.dtype(dtype), "shape": shape, "limit": limit}
+    if default_factory is not None:
+        return field(default_factory=default_factory, metadata=meta)
+    return field(metadata=meta)
+
+
+class Invalid(ValueError):
+    """Raised by :meth:`Msg.validate`: fields that disagree, named (``"v_ref: ..."``)."""
+
+    def __init__(self, field_name: str, why: str) -> None:
+        super().__init__(f"{field_name}: {why}")
+
+
+def _same_length(name: str, values, of: str, n: int, unit: str) -> None:
+    if len(values) != n:
+        raise Invalid(name, f"{len(values)} value(s) for {n} {unit}")
 
 
 class Msg:
@@ -47,6 +88,10 @@ class Msg:
 
     TAG: ClassVar[str]
     VERSION: ClassVar[int]
+
+    def validate(self) -> None:
+        """Check the fields together (each field is already checked on its own by the
+        codec); raise :class:`Invalid` naming the first field that disagrees."""
 
 
 # --------------------------------------------------------------------------------------
@@ -59,9 +104,9 @@ class Msg:
 class Pose2D(Msg):
     """A planar pose on a named floor."""
 
-    x: float
-    y: float
-    theta: float
+    x: float = num(*COORD)
+    y: float = num(*COORD)
+    theta: float = num(*ANGLE)
     floor: str = ""
 
 
@@ -70,9 +115,9 @@ class Pose2D(Msg):
 class Twist(Msg):
     """A velocity command for the chair: forward speed ``v`` (m/s), turn rate ``w`` (rad/s)."""
 
-    stamp: float
-    v: float
-    w: float
+    stamp: float = num(*STAMP)
+    v: float = num(*SPEED)
+    w: float = num(*TURN)
 
 
 @message("odometry")
@@ -80,10 +125,10 @@ class Twist(Msg):
 class Odometry(Msg):
     """Wheel odometry: the pose integrated from the wheels (drifts) and the measured speeds."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     pose: Pose2D
-    v: float
-    w: float
+    v: float = num(*SPEED)
+    w: float = num(*TURN)
     frame: str = "odom"
 
 
@@ -92,7 +137,7 @@ class Odometry(Msg):
 class PoseEstimate(Msg):
     """The localisation's pose on the current floor's map, with covariance (x, y, theta)."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     pose: Pose2D
     covariance: np.ndarray = array("float64", (3, 3))
     lost: bool = False
@@ -103,9 +148,9 @@ class PoseEstimate(Msg):
 class PointCloud(Msg):
     """Points in the sensor frame (x forward, y left, z up), metres, float32."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     frame: str
-    points: np.ndarray = array("float32", (None, 3))
+    points: np.ndarray = array("float32", (None, 3), limit=COORD[1])
 
 
 @message("path", version=5)
@@ -121,15 +166,23 @@ class Path(Msg):
     caps its speed. See services/controller/docking.py.
     """
 
-    stamp: float
+    stamp: float = num(*STAMP)
     path_id: str
     floor: str
-    waypoints: np.ndarray = array("float64", (None, 2))
-    v_ref: np.ndarray = array("float64", (None,))
+    waypoints: np.ndarray = array("float64", (None, 2), limit=COORD[1])
+    v_ref: np.ndarray = array("float64", (None,), limit=SPEED[1])
     reverse: bool = False
     precise: bool = False
     zones: list[str] = field(default_factory=list)
-    dock_heading: float | None = None
+    dock_heading: float | None = num(*ANGLE, default=None)
+
+    def validate(self) -> None:
+        n = len(self.waypoints)
+        _same_length("v_ref", self.v_ref, "waypoints", n, "waypoint(s)")
+        if self.zones:
+            _same_length("zones", self.zones, "waypoints", n, "waypoint(s)")
+        if self.dock_heading is not None and n == 0:
+            raise Invalid("dock_heading", "a docking path needs a waypoint")
 
 
 # --------------------------------------------------------------------------------------
@@ -146,10 +199,10 @@ class Clock(Msg):
     always sent, so listeners that only want the time take stage 0.
     """
 
-    stamp: float
-    tick: int
-    dt: float
-    stage: int = 0
+    stamp: float = num(*STAMP)
+    tick: int = num(*COUNT)
+    dt: float = num(1e-6, 3600.0)
+    stage: int = num(0, 1000, default=0)
 
 
 @message("ack", version=2)
@@ -159,9 +212,14 @@ class Ack(Msg):
     its step took ``compute_s`` seconds of wall time (for the lockstep profile)."""
 
     participant: str
-    tick: int
-    next_tick: int
-    compute_s: float = field(default=0.0, compare=False)  # a measurement, not identity
+    tick: int = num(*COUNT)
+    next_tick: int = num(*COUNT)
+    # a measurement, not identity
+    compute_s: float = field(default=0.0, compare=False, metadata={"range": SECONDS})
+
+    def validate(self) -> None:
+        if self.next_tick <= self.tick:
+            raise Invalid("next_tick", f"{self.next_tick} is not after tick {self.tick}")
 
 
 @message("lockstep_profile")
@@ -174,17 +232,22 @@ class LockstepProfile(Msg):
     its pacing; per participant, the wall time of its steps and how many it took.
     """
 
-    stamp: float
-    dt: float
-    ticks: int
-    wall_s: float
-    physics_s: float
-    publish_s: float
-    pacing_s: float
+    stamp: float = num(*STAMP)
+    dt: float = num(1e-6, 3600.0)
+    ticks: int = num(*COUNT)
+    wall_s: float = num(*SECONDS)
+    physics_s: float = num(*SECONDS)
+    publish_s: float = num(*SECONDS)
+    pacing_s: float = num(*SECONDS)
     stage_wait_s: list[float] = field(default_factory=list)
     participants: list[str] = field(default_factory=list)
     compute_s: list[float] = field(default_factory=list)
     steps: list[int] = field(default_factory=list)
+
+    def validate(self) -> None:
+        n = len(self.participants)
+        _same_length("compute_s", self.compute_s, "participants", n, "participant(s)")
+        _same_length("steps", self.steps, "participants", n, "participant(s)")
 
 
 # --------------------------------------------------------------------------------------
@@ -207,9 +270,9 @@ class DoorMode:
 class DoorState(Msg):
     """The current mode of one door (a ``DoorMode`` value)."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     door_name: str
-    current_mode: int
+    current_mode: int = num(DoorMode.CLOSED, DoorMode.UNKNOWN)
 
 
 @message("door_request")
@@ -217,10 +280,10 @@ class DoorState(Msg):
 class DoorRequest(Msg):
     """Ask a door to open or close on behalf of ``requester_id`` (a ``DoorMode`` value)."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     requester_id: str
     door_name: str
-    requested_mode: int
+    requested_mode: int = num(DoorMode.CLOSED, DoorMode.UNKNOWN)
 
 
 class LiftRequestType:
@@ -253,14 +316,14 @@ class LiftMotion:
 class LiftState(Msg):
     """The state of one lift: where the car is, where it goes, its door, who holds it."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     lift_name: str
     available_floors: list[str]
     current_floor: str
     destination_floor: str
-    door_state: int
-    motion_state: int
-    current_mode: int
+    door_state: int = num(LiftDoor.CLOSED, LiftDoor.OPEN)
+    motion_state: int = num(LiftMotion.STOPPED, LiftMotion.UNKNOWN)
+    current_mode: int = num(0, 5)  # rmf_lift_msgs/LiftState MODE_UNKNOWN .. MODE_EMERGENCY
     session_id: str
 
 
@@ -269,12 +332,12 @@ class LiftState(Msg):
 class LiftRequest(Msg):
     """Open or end a lift session, and send the car to ``destination_floor``."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     lift_name: str
     session_id: str
-    request_type: int
+    request_type: int = num(LiftRequestType.END_SESSION, LiftRequestType.HUMAN_MODE)
     destination_floor: str
-    door_state: int
+    door_state: int = num(LiftDoor.CLOSED, LiftDoor.OPEN)
 
 
 # --------------------------------------------------------------------------------------
@@ -288,18 +351,22 @@ class BuildingBodies(Msg):
     """Simulation only: how far each door is open and where each lift car and its doors are,
     for the simulator to move the bodies (a real building moves its own)."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     doors: list[str]
-    door_openings: np.ndarray = array("float64", (None,))
+    door_openings: np.ndarray = array("float64", (None,), limit=COORD[1])
     lifts: list[str] = field(default_factory=list)
-    car_elevations: np.ndarray = field(
-        default_factory=lambda: np.zeros(0),
-        metadata={"dtype": np.dtype("float64"), "shape": (None,)},
+    car_elevations: np.ndarray = array(
+        "float64", (None,), limit=COORD[1], default_factory=lambda: np.zeros(0)
     )
-    lift_door_openings: np.ndarray = field(
-        default_factory=lambda: np.zeros(0),
-        metadata={"dtype": np.dtype("float64"), "shape": (None,)},
+    lift_door_openings: np.ndarray = array(
+        "float64", (None,), limit=COORD[1], default_factory=lambda: np.zeros(0)
     )
+
+    def validate(self) -> None:
+        _same_length("door_openings", self.door_openings, "doors", len(self.doors), "door(s)")
+        n = len(self.lifts)
+        _same_length("car_elevations", self.car_elevations, "lifts", n, "lift(s)")
+        _same_length("lift_door_openings", self.lift_door_openings, "lifts", n, "lift(s)")
 
 
 @message("route_request", version=2)
@@ -332,9 +399,9 @@ class Checkpoint(Msg):
     floor: str
     approach: Pose2D
     exit: Pose2D
-    pass_distance_m: float
+    pass_distance_m: float = num(*LENGTH)
     door_type: str = ""
-    width_m: float = 0.0
+    width_m: float = num(*LENGTH, default=0.0)
     to_floor: str = ""
     centre: Pose2D | None = None  # the door's (or car door's) middle, heading = approach's
     controller: bool = True  # the building reports this door (False: verified by LiDAR alone)
@@ -362,10 +429,14 @@ class RouteReply(Msg):
 class Availability(Msg):
     """Mark a door or elevator unavailable to the planner (or available again), and why."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     name: str
     available: bool
     reason: str = ""
+
+    def validate(self) -> None:
+        if not self.name:
+            raise Invalid("name", "empty (which door or elevator?)")
 
 
 @message("follow_status", version=2)
@@ -377,12 +448,12 @@ class FollowStatus(Msg):
     keep the cross-track error of legs apart).
     """
 
-    stamp: float
+    stamp: float = num(*STAMP)
     path_id: str
     state: str
-    progress: float
-    distance_to_goal: float
-    cross_track: float
+    progress: float = num(*LENGTH)
+    distance_to_goal: float = num(*LENGTH)
+    cross_track: float = num(*COORD)
     precise: bool = False
 
 
@@ -391,11 +462,15 @@ class FollowStatus(Msg):
 class NavGoal(Msg):
     """Start a mission to a pose or a named place; ``cancel`` stops the running one."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     goal_id: str
     goal: Pose2D | None = None
     place: str = ""
     cancel: bool = False
+
+    def validate(self) -> None:
+        if not self.cancel and self.goal is None and not self.place:
+            raise Invalid("goal", "neither a goal pose nor a place (and not a cancel)")
 
 
 class Phase(StrEnum):
@@ -427,13 +502,13 @@ class Phase(StrEnum):
 class NavStatus(Msg):
     """The navigator's mission state: idle/running/succeeded/failed/cancelled and why."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     goal_id: str
     state: str
     action: str = ""
     phase: str = ""  # a Phase value
     reason: str = ""
-    progress: float = 0.0
+    progress: float = num(*LENGTH, default=0.0)
 
 
 TERMINAL_STATES = ("succeeded", "failed", "cancelled")  # NavStatus.state once a mission ended
@@ -444,8 +519,8 @@ TERMINAL_STATES = ("succeeded", "failed", "cancelled")  # NavStatus.state once a
 class TreeNode(Msg):
     """One behaviour of a tree snapshot: its place, kind, status and feedback."""
 
-    id: int
-    parent: int  # -1 for the root
+    id: int = num(*COUNT)
+    parent: int = num(-1, COUNT[1])  # -1 for the root
     name: str
     kind: str  # Sequence, Selector, decorator or leaf class name
     status: str  # SUCCESS, FAILURE, RUNNING, INVALID
@@ -457,10 +532,20 @@ class TreeNode(Msg):
 class TreeSnapshot(Msg):
     """The navigator's behaviour tree after a tick (as py_trees_ros streams it)."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     goal_id: str
     tree: str
     nodes: list[TreeNode] = field(default_factory=list)
+
+    def validate(self) -> None:
+        ids: set[int] = set()
+        for i, node in enumerate(self.nodes):
+            if node.id in ids:
+                raise Invalid(f"nodes[{i}].id", f"{node.id} appears twice")
+            ids.add(node.id)
+        for i, node in enumerate(self.nodes):
+            if node.parent != -1 and node.parent not in ids:
+                raise Invalid(f"nodes[{i}].parent", f"no node {node.parent} in the snapshot")
 
 
 @message("event")
@@ -468,7 +553,7 @@ class TreeSnapshot(Msg):
 class Event(Msg):
     """Something worth a line in the log and the report (collision, fallback, restart...)."""
 
-    stamp: float
+    stamp: float = num(*STAMP)
     source: str
     kind: str
     detail: str = ""
@@ -484,11 +569,15 @@ class DoorClearance(Msg):
     leaf's thickness, which stands in it open; 0: as ``width_m``)."""
 
     door_id: str
-    width_m: float
+    width_m: float = num(*LENGTH)
     min_clearance_m: float
     nearest: str = ""
     at: list[float] = field(default_factory=list)
-    free_width_m: float = 0.0
+    free_width_m: float = num(*LENGTH, default=0.0)
+
+    def validate(self) -> None:
+        if len(self.at) not in (0, 3):
+            raise Invalid("at", f"{len(self.at)} values (a pose is [x, y, theta], or none)")
 
 
 @message("sim_status")
@@ -496,8 +585,8 @@ class DoorClearance(Msg):
 class SimStatus(Msg):
     """Simulator bookkeeping for evaluation: collisions so far and the smallest clearance seen."""
 
-    stamp: float
-    collisions: int
+    stamp: float = num(*STAMP)
+    collisions: int = num(*COUNT)
     in_collision: bool
     clearance_m: float
     min_clearance_m: float
@@ -505,3 +594,53 @@ class SimStatus(Msg):
     doors: list[DoorClearance] = field(default_factory=list)  # door openings passed so far
     away_nearest: str = ""  # what the clearance away was to, and the true pose [x, y, theta]
     away_at: list[float] = field(default_factory=list)
+
+    def validate(self) -> None:
+        if len(self.away_at) not in (0, 3):
+            raise Invalid(
+                "away_at", f"{len(self.away_at)} values (a pose is [x, y, theta], or none)"
+            )
+
+
+# --------------------------------------------------------------------------------------
+# Diagnostics
+# --------------------------------------------------------------------------------------
+
+
+@message("key_counters")
+@dataclass
+class KeyCounters(Msg):
+    """What one subscription (or queryable) of a service received: every sample
+    (``messages_in``) and those dropped as bad (undecodable, invalid, or their handler
+    raised). ``key`` is the key expression as declared (a pattern where it has one)."""
+
+    key: str
+    messages_in: int = num(*COUNT)
+    bad_messages: int = num(*COUNT)
+
+
+@message("diagnostics")
+@dataclass
+class Diagnostics(Msg):
+    """A service's counters, every second of wall time and when it stops: ``stamp`` is
+    Unix time (wall clock, even on simulation time), ``restarts`` how often the launcher
+    restarted this service before this process, the totals the sums over ``keys``."""
+
+    stamp: float = num(*STAMP)
+    service: str
+    pid: int = num(*COUNT)
+    restarts: int = num(*COUNT)
+    uptime_s: float = num(*SECONDS)
+    messages_in: int = num(*COUNT)
+    bad_messages: int = num(*COUNT)
+    keys: list[KeyCounters] = field(default_factory=list)
+
+    def validate(self) -> None:
+        total_in = sum(k.messages_in for k in self.keys)
+        if self.messages_in != total_in:
+            raise Invalid("messages_in", f"{self.messages_in}, but the keys add up to {total_in}")
+        total_bad = sum(k.bad_messages for k in self.keys)
+        if self.bad_messages != total_bad:
+            raise Invalid(
+                "bad_messages", f"{self.bad_messages}, but the keys add up to {total_bad}"
+            )

@@ -56,6 +56,17 @@ def samples() -> list[m.Msg]:
         m.Event(10.0, "sim", "collision", "at (1, 2)", "error"),
         m.SimStatus(10.0, 1, False, 0.3, 0.1, 0.2, [m.DoorClearance("door_ab", 0.9, 0.12)]),
         m.DoorClearance("door_ab", 0.9, 0.12),
+        m.KeyCounters("wheelnav/chair1/odom", 120, 3),
+        m.Diagnostics(
+            1.7e9,
+            "controller",
+            4242,
+            1,
+            12.5,
+            125,
+            3,
+            [m.KeyCounters("wheelnav/chair1/odom", 120, 3), m.KeyCounters("a/b", 5, 0)],
+        ),
     ]
 
 
