@@ -10,12 +10,18 @@ turns SIGTERM/SIGINT into a clean stop. A node module does::
         svc.wait()   # announces the service, then blocks
 
 Bad configuration ends the process with one line on stderr and exit code 2.
+
+Every service publishes its counters (:class:`~shared.messages.Diagnostics`: messages in
+and bad messages per key, restarts) on ``wheelnav/<robot>/diagnostics/<service>`` every
+``DIAGNOSTICS_EVERY_S`` of wall time and once more when it stops; the launcher tells it
+how often it was restarted in the environment variable ``WHEELNAV_RESTARTS``.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
 import threading
@@ -25,12 +31,23 @@ from collections.abc import Callable, Sequence
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
 from shared.lockstep import Participant
-from shared.messages import Ack, Clock
+from shared.messages import Ack, Clock, Diagnostics, KeyCounters
 from shared.topics import Keys
 from shared.transport import Bus, open_session
 
 EXIT_CONFIG = 2
 EXIT_STEP_FAILED = 3  # a wall-clock step raised: the launcher restarts the service
+DIAGNOSTICS_EVERY_S = 1.0  # wall time between two Diagnostics of a service
+RESTARTS_ENV = "WHEELNAV_RESTARTS"  # set by the launcher: restarts before this process
+
+
+def restarts_from_env(environ: dict[str, str] | None = None) -> int:
+    """How often the launcher restarted this service (0 if not told, or told nonsense)."""
+    text = (os.environ if environ is None else environ).get(RESTARTS_ENV, "0")
+    try:
+        return max(0, int(text))
+    except ValueError:
+        return 0
 
 
 def add_override_argument(parser: argparse.ArgumentParser) -> None:
@@ -115,6 +132,10 @@ class Service:
         self.step_failed = False
         self.bus: Bus | None = None
         self._ready = False
+        self.restarts = restarts_from_env()
+        self._started = time.monotonic()
+        self._diag_stop = threading.Event()
+        self._diag_thread: threading.Thread | None = None
 
     def __enter__(self) -> Service:
         for sig in (signal.SIGTERM, signal.SIGINT):
@@ -125,6 +146,11 @@ class Service:
             self.log.error("%s", exc)
             raise SystemExit(1) from None
         self.bus = Bus(session, self.name)
+        self._diag_key = self.keys.key("diagnostics", service=self.name)
+        self._diag_thread = threading.Thread(
+            target=self._diagnostics_loop, name=f"{self.name}-diagnostics", daemon=True
+        )
+        self._diag_thread.start()
         return self
 
     def ready(self) -> None:
@@ -143,10 +169,39 @@ class Service:
 
     def __exit__(self, *exc: object) -> None:
         if self.bus is not None:
+            self._diag_stop.set()
+            if self._diag_thread is not None:
+                self._diag_thread.join(timeout=2.0)
+            self._publish_diagnostics()  # the last counts, for whoever listens
             self.bus.close()
         self.log.info("stopped")
         if self.step_failed and exc[0] is None:
             raise SystemExit(EXIT_STEP_FAILED)
+
+    def diagnostics(self) -> Diagnostics:
+        """This service's counters now (messages in and bad messages per key, restarts)."""
+        assert self.bus is not None
+        keys = [KeyCounters(k, n_in, n_bad) for k, (n_in, n_bad) in self.bus.counters().items()]
+        return Diagnostics(
+            time.time(),
+            self.name,
+            os.getpid(),
+            self.restarts,
+            time.monotonic() - self._started,
+            sum(k.messages_in for k in keys),
+            sum(k.bad_messages for k in keys),
+            keys,
+        )
+
+    def _publish_diagnostics(self) -> None:
+        try:
+            self.bus.publish(self._diag_key, self.diagnostics())
+        except Exception as exc:  # diagnostics must never take the service down
+            self.log.warning("cannot publish diagnostics: %s: %s", type(exc).__name__, exc)
+
+    def _diagnostics_loop(self) -> None:
+        while not self._diag_stop.wait(DIAGNOSTICS_EVERY_S):
+            self._publish_diagnostics()
 
     def declare(self, what: str, key: str) -> str:
         """Log a key this service declares (zenoh's examples print theirs) and return it."""

@@ -198,6 +198,15 @@ TOPICS: tuple[Topic, ...] = (
         "events", "{ns}/events/{source}", m.Event, "pub", "any service", "user", "notable events"
     ),
     Topic(
+        "diagnostics",
+        "{ns}/diagnostics/{service}",
+        m.Diagnostics,
+        "pub",
+        "every service",
+        "mission runner, wheelnav topic echo",
+        "counters per key (messages in, bad messages) and restarts, every 1 s of wall time",
+    ),
+    Topic(
         "alive",
         "{ns}/alive/{service}",
         None,

@@ -5,7 +5,11 @@
 subscribe, query and liveliness helpers that encode/decode wheelnav messages. A
 malformed payload never reaches a callback: the bus logs one line naming the key and
 the fault, counts it in :attr:`Bus.bad_messages`, and carries on. An exception raised in
-a callback is logged and counted the same way; the subscriber keeps running.
+a callback is logged and counted the same way; the subscriber keeps running. Every sample
+and query received is counted in :attr:`Bus.messages_in`; both counters are kept per key
+expression as declared (a subscription to ``.../door/*/state`` counts every door's under
+that pattern) and :meth:`Bus.counters` reads them at once (the service publishes them as
+``Diagnostics``).
 
 Ordering: zenoh-python runs each subscriber's callbacks on a thread of its own, which
 loses the order in which samples of different keys arrived (a pose published before a
@@ -68,7 +72,8 @@ class Bus:
         self.session = session
         self.name = name
         self.lock = threading.RLock()
-        self.bad_messages: Counter[str] = Counter()
+        self.bad_messages: Counter[str] = Counter()  # per declared key (see counters)
+        self.messages_in: Counter[str] = Counter()
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._keep: list[Any] = []
         self._count_lock = threading.Lock()
@@ -124,16 +129,17 @@ class Bus:
         def deliver(sample: zenoh.Sample) -> None:
             if sample.kind != zenoh.SampleKind.PUT:
                 return
+            self._count_in(key)
             topic = str(sample.key_expr)
             try:
                 msg = decode(sample.payload.to_bytes(), msg_type)
             except DecodeError as exc:
-                self._count_bad(topic, str(exc))
+                self._count_bad(key, str(exc), topic)
                 return
             try:
                 callback(msg)
             except Exception as exc:  # a bad message must not kill the subscriber
-                self._count_bad(topic, f"handler failed: {type(exc).__name__}: {exc}")
+                self._count_bad(key, f"handler failed: {type(exc).__name__}: {exc}", topic)
                 log.debug("handler traceback", exc_info=True)
 
         self._keep.append(self.session.declare_subscriber(key, self._handler(deliver)))
@@ -147,12 +153,27 @@ class Bus:
 
         self._keep.append(self.session.declare_subscriber(key, self._handler(deliver)))
 
-    def _count_bad(self, topic: str, why: str) -> None:
+    def _count_in(self, key: str) -> None:
         with self._count_lock:
-            self.bad_messages[topic] += 1
-            n = self.bad_messages[topic]
+            self.messages_in[key] += 1
+
+    def _count_bad(self, key: str, why: str, topic: str | None = None) -> None:
+        """Count a bad message under the declared ``key``; the log names the ``topic`` it
+        came on (the first 10 per key, then every 100th)."""
+        with self._count_lock:
+            self.bad_messages[key] += 1
+            n = self.bad_messages[key]
         if n <= 10 or n % 100 == 0:
-            log.warning("%s: dropped bad message on %s (%d so far): %s", self.name, topic, n, why)
+            log.warning(
+                "%s: dropped bad message on %s (%d so far): %s", self.name, topic or key, n, why
+            )
+
+    def counters(self) -> dict[str, tuple[int, int]]:
+        """``{key: (messages in, bad messages)}`` for every key that has received anything
+        (taken at once, so the totals agree)."""
+        with self._count_lock:
+            keys = sorted(set(self.messages_in) | set(self.bad_messages))
+            return {k: (self.messages_in[k], self.bad_messages[k]) for k in keys}
 
     # -- request / response -------------------------------------------------------------
 
@@ -169,6 +190,7 @@ class Bus:
                 deliver(query)
 
         def deliver(query: zenoh.Query) -> None:
+            self._count_in(key)
             try:
                 payload = query.payload.to_bytes() if query.payload is not None else b""
                 request = decode(payload, req_type)

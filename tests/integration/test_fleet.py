@@ -191,12 +191,18 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
         if e["kind"] == "lockstep_timeout"
     ]
     assert not slips
+    # wall-clock figures: the wall time and the services' counters (sampled every second)
     differ = {
         key: (first[key], second[key])
         for key in first
-        if key != "wall_time_s" and first[key] != second.get(key)
+        if key not in ("wall_time_s", "diagnostics") and first[key] != second.get(key)
     }
     assert differ == {}
+    for report in (first, second):  # every service counted, nothing bad, no restart
+        diag = report["diagnostics"]
+        assert set(diag) >= {s.name for s in services_for("sim")}, diag
+        assert all(d["bad_messages"] == 0 and d["restarts"] == 0 for d in diag.values()), diag
+        assert all(d["messages_in"] > 0 for d in diag.values()), diag
     shown = subprocess.run(
         [str(Path(PYTHON).parent / "rerun"), "rrd", "print", str(rrd)],
         capture_output=True,

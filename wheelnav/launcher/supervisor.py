@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import TextIO
 
 from shared.config import LauncherConfig, TransportConfig
-from shared.service import EXIT_CONFIG
+from shared.service import EXIT_CONFIG, RESTARTS_ENV
 from shared.topics import Keys
 from shared.transport import Bus, open_session
 from wheelnav.launcher.backoff import Backoff, prefix
@@ -131,7 +131,8 @@ class Supervisor:
         return [sys.executable, *cmd[1:], *self.extra_args]
 
     def _spawn(self, child: _Child) -> None:
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        # the service publishes how often it was restarted (its Diagnostics)
+        env = dict(os.environ, PYTHONUNBUFFERED="1", **{RESTARTS_ENV: str(child.restarts)})
         child.proc = subprocess.Popen(
             self._command(child.spec),
             stdout=subprocess.PIPE,

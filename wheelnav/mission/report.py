@@ -16,7 +16,14 @@ from typing import Any
 import numpy as np
 
 from shared.geometry import wrap_angle
-from shared.messages import TERMINAL_STATES, DoorClearance, NavStatus, RouteReply, SimStatus
+from shared.messages import (
+    TERMINAL_STATES,
+    Diagnostics,
+    DoorClearance,
+    NavStatus,
+    RouteReply,
+    SimStatus,
+)
 from wheelnav.mission.checkpoints import CheckpointLog, PoseHistory
 
 MAX_ACTIONS = 2000  # status text changes kept in a report
@@ -95,6 +102,7 @@ class Recorder:
     _action_shape: str = ""
     trace: Trace = field(default_factory=Trace)
     _clearance: float | None = None  # the latest clearance the simulator reported
+    diagnostics: dict[str, Diagnostics] = field(default_factory=dict)  # latest per service
 
     @property
     def finished(self) -> bool:
@@ -139,6 +147,27 @@ class Recorder:
             seen = self.door_clearance.get(d.door_id)
             if seen is None or d.min_clearance_m < seen.min_clearance_m:
                 self.door_clearance[d.door_id] = d
+
+    def on_diagnostics(self, msg: Diagnostics) -> None:
+        """A service's counters: the latest of each service before the mission ended."""
+        if not self.finished:
+            self.diagnostics[msg.service] = msg
+
+    def diagnostics_rows(self) -> dict[str, dict[str, Any]]:
+        """Per service (by name): messages in, bad messages (and per key where any), restarts.
+
+        Sampled on wall time (each service publishes every second), so unlike the rest of
+        the report these counts differ between two runs of one scenario.
+        """
+        return {
+            name: {
+                "messages_in": d.messages_in,
+                "bad_messages": d.bad_messages,
+                "restarts": d.restarts,
+                "bad_by_key": {k.key: k.bad_messages for k in d.keys if k.bad_messages},
+            }
+            for name, d in sorted(self.diagnostics.items())
+        }
 
     def on_route(self, route: RouteReply) -> None:
         """A route about to be driven: its planned length (legs plus door passes)."""
@@ -268,6 +297,7 @@ class Recorder:
             "actions": self.actions,
             "trace": self.trace.rows(),
             "trace_every_s": self.trace.every_s,
+            "diagnostics": self.diagnostics_rows(),
         }
 
 
@@ -308,7 +338,20 @@ def format_report(report: dict[str, Any]) -> str:
     for p in report["phases"]:
         end = f"{p['end_s']:.1f}" if p["end_s"] is not None else "-"
         lines.append(f"  phase {p['name']:8s} {p['start_s']:7.1f} -> {end} s")
+    lines.extend(format_diagnostics(report.get("diagnostics", {})))
     return "\n".join(lines)
+
+
+def format_diagnostics(rows: dict[str, dict[str, Any]]) -> list[str]:
+    """One line per service: messages in, bad messages (by key where any), restarts."""
+    lines = []
+    for name, d in rows.items():
+        where = ", ".join(f"{k} {n}" for k, n in d.get("bad_by_key", {}).items())
+        lines.append(
+            f"  diagnostics {name:12s} in {d['messages_in']:7d}  bad {d['bad_messages']:5d}"
+            f"  restarts {d['restarts']}" + (f"  ({where})" if where else "")
+        )
+    return lines
 
 
 def format_checkpoint(c: dict[str, Any]) -> str:

@@ -24,6 +24,7 @@ from shared.config import TransportConfig
 from shared.lockstep import Participant
 from shared.messages import (
     Clock,
+    Diagnostics,
     DoorMode,
     DoorState,
     Event,
@@ -162,6 +163,7 @@ class MissionRun:
             lambda m: self.recorder.on_pose(m.stamp, m.pose.x, m.pose.y, m.pose.theta),
         )
         bus.subscribe(keys.key("events"), Event, self._on_event)
+        bus.subscribe(keys.key("diagnostics"), Diagnostics, self.recorder.on_diagnostics)
         bus.subscribe(
             keys.key("door_state"),
             DoorState,

@@ -23,6 +23,8 @@ def _show(value: object, indent: str) -> str:
         head = np.array2string(value[:3], precision=3, suppress_small=True).replace("\n", " ")
         more = " ..." if len(value) > 3 else ""
         return f"array {value.dtype} {value.shape} {head}{more}"
+    if isinstance(value, list) and value and all(dataclasses.is_dataclass(v) for v in value):
+        return f"{len(value)}" + "".join(f"\n{indent}  - {_show(v, indent)}" for v in value)
     if dataclasses.is_dataclass(value):
         inner = ", ".join(
             f"{f.name}={_fmt(getattr(value, f.name))}" for f in dataclasses.fields(value)

@@ -22,3 +22,15 @@ def test_rate_meter() -> None:
         m.tick(i * 0.02)
     s = m.stats()
     assert abs(s["rate_hz"] - 50.0) < 1e-6 and s["n"] == 10
+
+
+def test_summary_shows_diagnostics_one_key_per_line() -> None:
+    from shared.messages import Diagnostics, KeyCounters
+
+    text = summarise(
+        Diagnostics(
+            1.7e9, "planner", 42, 2, 3.0, 7, 4, [KeyCounters("a/b", 5, 4), KeyCounters("c", 2, 0)]
+        )
+    )
+    assert "restarts: 2" in text and "bad_messages: 4" in text
+    assert "keys: 2\n    - {key='a/b', messages_in=5, bad_messages=4}\n    - {key='c'" in text
