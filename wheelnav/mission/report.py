@@ -30,7 +30,7 @@ MAX_ACTIONS = 2000  # status text changes kept in a report
 TRACE_EVERY_S = 0.25  # simulation seconds between the trace's samples, to begin with
 MAX_TRACE = 1200  # trace samples kept: 5 minutes at 0.25 s, then the spacing doubles
 _FAR_M = 1e5  # clearances from here up mean "nothing seen" (the simulator's 1e6)
-_DIGITS = re.compile(r"-?\d+(\.\d+)?")
+_DIGITS = re.compile(r"(?<![\w.])-?\d+(\.\d+)?")  # a number, not the digits of a name (d1_004)
 
 
 @dataclass
@@ -127,8 +127,9 @@ class Recorder:
 
     def _note_action(self, stamp: float, phase: str, text: str) -> None:
         """Keep the navigator's status text where it changes in more than its numbers
-        ("0.06 of 2.25 m" and "1.06 of 2.25 m" are one entry), at most ``MAX_ACTIONS``."""
-        shape = _DIGITS.sub("#", text)
+        ("0.06 of 2.25 m" and "1.06 of 2.25 m" are one entry; "Door d1_005 (2/6)" and "Door
+        d1_004 (3/6)" are two), and where the phase changes, at most ``MAX_ACTIONS``."""
+        shape = f"{phase}:{_DIGITS.sub('#', text)}"
         if not text or len(self.actions) >= MAX_ACTIONS or shape == self._action_shape:
             return
         self._action_shape = shape

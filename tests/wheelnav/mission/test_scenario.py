@@ -90,10 +90,16 @@ def test_the_report_keeps_the_status_text_where_it_changes_in_more_than_numbers(
         (3.0, "pass", "holding: LiDAR: something in the doorway ahead"),
         (4.0, "pass", "holding: LiDAR: something in the doorway ahead"),
         (5.0, "follow", "following route-3.1"),
+        (6.0, "correct", "Door d1_005 (2/6)"),
+        (7.0, "correct", "Door d1_004 (3/6)"),  # another door: its name has digits
+        (8.0, "turn", "Door d1_004 (3/6)"),  # the same text in the next phase
     ]:
         r.on_status(NavStatus(t, "g1", "running", action=text, phase=phase))
     assert [(a["t"], a["text"]) for a in r.report("demo", 1.0)["actions"]] == [
         (1.0, "0.06 of 2.25 m by odometry"),
         (3.0, "holding: LiDAR: something in the doorway ahead"),
         (5.0, "following route-3.1"),
+        (6.0, "Door d1_005 (2/6)"),
+        (7.0, "Door d1_004 (3/6)"),
+        (8.0, "Door d1_004 (3/6)"),
     ]
