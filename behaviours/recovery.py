@@ -1,10 +1,11 @@
 """Recoveries for a chair held by an obstacle or boxed in ("blocked"), as Nav2 has them.
 
 After the safety gate has waited ``navigator.recovery_wait_s`` (the first recovery) the
-navigator runs :func:`create_recovery_tree`: back up along the way it came, then turn in
-place to face the way on (only when nothing stands within the chair's turning radius),
-each bounded by ``navigator.recovery_move_timeout_s`` and each reported as a
-``recovery`` event; a move that cannot be made is reported and skipped. The navigator
+navigator runs :func:`create_recovery_tree`: back up along the way it came, then turn to
+face the way on (on the spot when nothing stands within the chair's turning radius, else
+by the controller's docking manoeuvre: turns and short drives forwards and back that fit
+the room its LiDAR shows), each bounded by ``navigator.recovery_move_timeout_s`` and each
+reported as a ``recovery`` event; a move that cannot be made is reported and skipped. The navigator
 then re-plans with the points that blocked the chair marked as obstacles.
 """
 
@@ -75,7 +76,10 @@ class BackUp(FleetBehaviour):
 
 
 class TurnToward(FleetBehaviour):
-    """Turn on the spot to face ``target`` (x, y), if nothing is within ``radius_m``."""
+    """Turn to face ``target`` (x, y): on the spot if nothing is within ``radius_m``, else
+    by a docking manoeuvre (the controller's docker plans one where a turn on the spot
+    would sweep into a point: in the room between two doors in series the campaign's
+    chairs stood wedged, "no room to turn", until every recovery had run out)."""
 
     phase = Phase.TURN
 
@@ -88,11 +92,13 @@ class TurnToward(FleetBehaviour):
         self.bb.phase = self.phase
         self._dock = None
         est = self.fleet.pose()
-        if est is None or not self.fleet.room_to_turn(self.radius_m):
-            self.fleet.event("recovery", "turn in place skipped: no room to turn")
+        if est is None:
+            self.fleet.event("recovery", "turn in place skipped: no pose estimate")
             return
+        how = "" if self.fleet.room_to_turn(self.radius_m) else " (no room on the spot: manoeuvre)"
         self.fleet.event(
-            "recovery", f"turn in place: towards ({self.target[0]:.1f}, {self.target[1]:.1f})"
+            "recovery",
+            f"turn in place: towards ({self.target[0]:.1f}, {self.target[1]:.1f}){how}",
         )
         self._dock = DockAt(
             "Turn in place",

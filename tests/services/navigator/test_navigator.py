@@ -266,3 +266,30 @@ def test_blocked_tries_recoveries_in_order_then_stops_with_the_reason() -> None:
     assert nav.status.state == "failed" and fleet.t < 60.0
     assert nav.status.reason.startswith("blocked"), nav.status.reason
     assert "2 recoveries" in nav.status.reason
+
+
+def test_with_no_room_to_turn_on_the_spot_the_turn_recovery_manoeuvres() -> None:
+    # campaign b2.m00, b2.m04, b10.m00 and others: wedged in a small room, "back up not
+    # possible" and "turn in place skipped: no room to turn" left only re-plans from the
+    # same pose. Now the turn is a docking manoeuvre (the controller's docker plans turns
+    # and short drives that fit the room its LiDAR shows).
+    fleet = ScriptedFleet(AROUND)
+    fleet.turn_room = False
+    nav, out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    docks = []
+    while nav.status.state == "running" and fleet.t < 30.0:
+        fleet.t += 0.5
+        step(nav, fleet)
+        last = fleet.sent[-1]
+        if last.dock_heading is not None:
+            docks.append(last)
+        if last.reverse or last.dock_heading is not None:
+            fleet.arrive()
+            step(nav, fleet)
+            fleet.follow = FollowStatus(fleet.t, "x", "blocked", 0.2, 1.8, 0.0)
+    turns = [d for k, d in fleet.events if k == "recovery" and d.startswith("turn in place")]
+    assert turns and turns[0].endswith("(no room on the spot: manoeuvre)"), fleet.events
+    assert docks, "the turn is sent to the controller as a docking manoeuvre"
