@@ -222,57 +222,79 @@ def _door_steps(
     building = cp.controller  # a door without a controller is verified by LiDAR alone
     if cp.door_type == "powered" and building:
         steps.append(RequestDoor(cp.id, DoorMode.OPEN))
-    wait: py_trees.behaviour.Behaviour
-    if cp.door_type == "automatic" and nav.idle_motion:  # rock so the motion sensor fires
-        wait = py_trees.composites.Parallel(
-            f"Open {cp.id}",
-            policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
-            children=[
-                WaitForDoorOpen(
-                    cp.id,
-                    centre,
-                    nav.door_scans,
-                    stop_on_start=False,
-                    width_m=cp.width_m,
-                    building=building,
-                ),
-                IdleMotion(
-                    cp.id, cp.floor, (a.x, a.y, a.theta), nav.idle_speed, nav.idle_amplitude_m
-                ),
-            ],
-        )
-    else:
-        wait = WaitForDoorOpen(cp.id, centre, nav.door_scans, width_m=cp.width_m, building=building)
-    through = DriveThrough(
-        f"Pass {cp.id}",
-        f"{route_id}.door.{cp.id}",
-        Phase.PASS,
-        cp.floor,
-        (a.x, a.y),
-        (e.x, e.y),
-        p.door_speed,
-        centre,
-        p.front_m,
-        door_id=cp.id if building else "",
-        overrun_m=nav.pass_overrun_m,
-        door_width_m=cp.width_m,
-    )
-    steps += [
-        Timeout(
-            f"Phase 2 {cp.id}",
-            wait,
+    rocking = cp.door_type == "automatic" and nav.idle_motion
+
+    def wait(again: str = "") -> py_trees.behaviour.Behaviour:
+        """Phase 2: wait for the door to be seen open (rocking, so an automatic door's
+        motion sensor fires), bounded; on timeout the door is named blocked."""
+        if rocking:
+            inner: py_trees.behaviour.Behaviour = py_trees.composites.Parallel(
+                f"Open {cp.id}{again}",
+                policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                children=[
+                    WaitForDoorOpen(
+                        cp.id,
+                        centre,
+                        nav.door_scans,
+                        stop_on_start=False,
+                        width_m=cp.width_m,
+                        building=building,
+                    ),
+                    IdleMotion(
+                        cp.id, cp.floor, (a.x, a.y, a.theta), nav.idle_speed, nav.idle_amplitude_m
+                    ),
+                ],
+            )
+        else:
+            inner = WaitForDoorOpen(
+                cp.id, centre, nav.door_scans, width_m=cp.width_m, building=building
+            )
+        says = f"door {cp.id} did not open within {nav.door_timeout_s:g} s"
+        return Timeout(
+            f"Phase 2 {cp.id}{again}",
+            inner,
             nav.door_timeout_s,
             clock,
-            _blocking(record, cp.id, f"door {cp.id} did not open within {nav.door_timeout_s:g} s"),
-        ),
-        Timeout(
-            f"Phase 3 {cp.id}",
-            through,
-            _pass_timeout(cp.pass_distance_m, p.door_speed),
-            clock,
-            record,
-        ),
-    ]
+            _blocking(record, cp.id, says),
+        )
+
+    def through(again: str = "", closed_fails: bool = False) -> py_trees.behaviour.Behaviour:
+        """Phase 3: the pass, bounded by the time its distance takes at the door speed."""
+        drive = DriveThrough(
+            f"Pass {cp.id}{again}",
+            f"{route_id}.door.{cp.id}",
+            Phase.PASS,
+            cp.floor,
+            (a.x, a.y),
+            (e.x, e.y),
+            p.door_speed,
+            centre,
+            p.front_m,
+            door_id=cp.id if building else "",
+            overrun_m=nav.pass_overrun_m,
+            door_width_m=cp.width_m,
+            closed_fails=closed_fails,
+        )
+        limit = _pass_timeout(cp.pass_distance_m, p.door_speed)
+        return Timeout(f"Phase 3 {cp.id}{again}", drive, limit, clock, record)
+
+    steps.append(wait())
+    if rocking and building:
+        # an automatic door that closes while the chair stands before it (its hold time ran
+        # out at the end of a long correction) opens again only for motion: wait again,
+        # rocking, and pass once more
+        again = py_trees.composites.Sequence(
+            f"Again {cp.id}", memory=True, children=[wait(" again"), through(" again")]
+        )
+        steps.append(
+            py_trees.composites.Selector(
+                f"Pass {cp.id} or again",
+                memory=True,
+                children=[through(closed_fails=True), again],
+            )
+        )
+    else:
+        steps.append(through())
     if cp.door_type == "powered" and building:
         middle = cp.centre or Pose2D((a.x + e.x) / 2, (a.y + e.y) / 2, a.theta)
         steps.append(ReleaseDoor(cp.id, cp.floor, (middle.x, middle.y, middle.theta), cp.width_m))

@@ -232,7 +232,11 @@ class DriveThrough(FollowPath):
     It holds (chair stopped, path resent when clear) while the lane ahead is blocked by
     LiDAR (a leaf closing in front of the chair, in a doorway ``door_width_m`` wide, 0 if
     unknown: see :func:`services.navigator.door_check.lane_blocked`) or, for a door, while
-    the building stops reporting the door OPEN.
+    the building stops reporting the door OPEN. With ``closed_fails`` a door that stops
+    being reported OPEN while the chair's front has not reached its plane ends the pass
+    (FAILURE) instead: an automatic door that closed while the chair stood still before it
+    (its motion sensor saw nothing for its hold time) opens again only for motion, so
+    holding still would wait for ever; the door steps then wait for it again, rocking.
     """
 
     def __init__(
@@ -251,6 +255,7 @@ class DriveThrough(FollowPath):
         overrun_m: float = 0.2,
         tolerance_m: float = 0.03,
         door_width_m: float = 0.0,
+        closed_fails: bool = False,
     ) -> None:
         a, b = np.asarray(start, float), np.asarray(end, float)
         length = float(np.linalg.norm(b - a))
@@ -270,6 +275,8 @@ class DriveThrough(FollowPath):
         self.reverse = reverse
         self.tolerance_m = tolerance_m
         self.required_m = length
+        self.closed_fails = closed_fails
+        self._to_plane: float | None = None  # from the front to the door plane at the start
         self.held_for = ""
         self._odom0: tuple[float, float] | None = None
         self._odom_dir = 0.0
@@ -278,10 +285,14 @@ class DriveThrough(FollowPath):
 
     def initialise(self) -> None:
         est = self.fleet.pose()
+        self._to_plane = None
         if est is not None:  # the distance still to go, from where the chair stands
             ux, uy = math.cos(self.direction), math.sin(self.direction)
             p = est.pose
             self.required_m = (self.end[0] - p.x) * ux + (self.end[1] - p.y) * uy
+            if self.door_xy is not None:
+                ahead = (self.door_xy[0] - p.x) * ux + (self.door_xy[1] - p.y) * uy
+                self._to_plane = ahead - self.lead_m
         odom = self.fleet.odometry()
         self._odom0 = (odom.pose.x, odom.pose.y) if odom is not None else None
         self._odom_dir = odom.pose.theta + (math.pi if self.reverse else 0.0) if odom else 0.0
@@ -309,8 +320,16 @@ class DriveThrough(FollowPath):
                 return "LiDAR: something in the doorway ahead"
         return ""
 
+    def _before_the_door(self) -> bool:
+        """Whether the chair's front has not yet reached the door plane (by odometry)."""
+        done = self.travelled()
+        return self._to_plane is not None and done is not None and done < self._to_plane
+
     def update(self) -> Status:
         reason = self._hold_reason()
+        if reason.startswith("door ") and self.closed_fails and self._before_the_door():
+            self.fleet.stop()
+            return self.fail(f"door {self.door_id} closed before the chair reached it")
         if reason:
             if not self.held_for:
                 self.fleet.stop()
