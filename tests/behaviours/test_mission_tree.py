@@ -217,15 +217,11 @@ def test_automatic_door_gets_idle_motion_until_it_opens() -> None:
     assert fleet.sent[-1].path_id == "r.door.d1"
 
 
-def test_an_automatic_door_that_closes_before_the_chair_reaches_it_is_rocked_open_again() -> None:
-    # campaign b0.m08 and b3.m05 ("Pass d1_004: timed out after 33.3 s"): at the end of a
-    # long correction the chair stood still, the automatic door's hold time ran out as the
-    # pass began, and the pass held "door no longer reported open" until its limit; the
-    # door opens only for motion. Now the pass ends and the door is waited for again,
-    # rocking, then passed.
+def passing(kind: str) -> tuple[py_trees.trees.BehaviourTree, ScriptedFleet]:
+    """A tree at the pass of a ``kind`` door centred at (2, 0), found open."""
     blackboard()
     fleet = ScriptedFleet(None)
-    cp = door("automatic")
+    cp = door(kind)
     cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
     tree = route_tree(route(cp), fleet)
     to_the_door(tree, fleet)
@@ -233,6 +229,16 @@ def test_an_automatic_door_that_closes_before_the_chair_reaches_it_is_rocked_ope
     for _ in range(3):
         tree.tick()
     assert fleet.sent[-1].path_id == "r.door.d1"
+    return tree, fleet
+
+
+def test_an_automatic_door_that_closes_before_the_chair_reaches_it_is_rocked_open_again() -> None:
+    # campaign b0.m08 and b3.m05 ("Pass d1_004: timed out after 33.3 s"): at the end of a
+    # long correction the chair stood still, the automatic door's hold time ran out as the
+    # pass began, and the pass held "door no longer reported open" until its limit; the
+    # door opens only for motion. Now the pass ends and the door is waited for again,
+    # rocking, then passed.
+    tree, fleet = passing("automatic")
     fleet.doors["d1"] = DoorMode.CLOSED  # closing while the chair stands 0.24 m before it
     tree.tick()
     tree.tick()
@@ -247,16 +253,7 @@ def test_an_automatic_door_that_closes_before_the_chair_reaches_it_is_rocked_ope
 
 
 def test_pass_holds_while_the_lane_is_blocked_and_ends_by_odometry() -> None:
-    blackboard()
-    fleet = ScriptedFleet(None)
-    cp = door()
-    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
-    tree = route_tree(route(cp), fleet)
-    to_the_door(tree, fleet)
-    fleet.doors["d1"] = DoorMode.OPEN
-    for _ in range(3):
-        tree.tick()
-    assert fleet.sent[-1].path_id == "r.door.d1"
+    tree, fleet = passing("manual")
     stops = fleet.stops
     fleet.x = 1.5  # on the way
     fleet.lane = True  # a leaf swings into the doorway ahead

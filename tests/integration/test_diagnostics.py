@@ -10,22 +10,9 @@ import threading
 from shared.config import LauncherConfig
 from shared.messages import Diagnostics, Event, Twist
 from shared.topics import Keys
+from tests.integration.test_fleet import Capture
 from wheelnav.launcher.fleet import ServiceSpec
 from wheelnav.launcher.supervisor import Supervisor, wait_ready
-
-
-class _Out:
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-
-    def write(self, text: str) -> None:
-        self.lines.append(text)
-
-    def flush(self) -> None:
-        pass
-
-    def isatty(self) -> bool:
-        return False
 
 
 def test_service_publishes_its_counters_and_restarts(router) -> None:
@@ -48,7 +35,7 @@ def test_service_publishes_its_counters_and_restarts(router) -> None:
         return latest[-1]
 
     bus.subscribe(keys.key("diagnostics", service="probe"), Diagnostics, on_diag)
-    out = _Out()
+    out = Capture()
     spec = ServiceSpec("probe", "tests.integration.probe_service", (), "a probe")
     cfg = LauncherConfig(restart_backoff_s=0.2)
     sup = Supervisor([spec], endpoint, cfg, None, out=out)
