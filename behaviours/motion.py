@@ -71,7 +71,10 @@ class FollowPath(FleetBehaviour):
         return Status.SUCCESS if self.arrived() else Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        if new_status == Status.INVALID and self.fleet is not None:
+        # only an interrupted drive stops the chair: a memory selector also resets a child
+        # that failed earlier (INVALID after FAILURE), and that stop would cancel the path
+        # the next child has just sent (b0.m08: the rocking after a failed pass stood still)
+        if new_status == Status.INVALID and self.status == Status.RUNNING and self.fleet:
             self.fleet.stop()
 
 
