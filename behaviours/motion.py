@@ -310,8 +310,12 @@ class DriveThrough(FollowPath):
         dx, dy = odom.pose.x - self._odom0[0], odom.pose.y - self._odom0[1]
         return dx * math.cos(self._odom_dir) + dy * math.sin(self._odom_dir)
 
+    def _door_not_open(self) -> bool:
+        """Whether the building no longer reports this pass's door OPEN."""
+        return bool(self.door_id) and self.fleet.door_mode(self.door_id) != DoorMode.OPEN
+
     def _hold_reason(self) -> str:
-        if self.door_id and self.fleet.door_mode(self.door_id) != DoorMode.OPEN:
+        if self._door_not_open():
             return f"door {self.door_id} no longer reported open"
         if self.door_xy is not None:
             stamp, blocked = self.fleet.lane_blocked(
@@ -329,10 +333,10 @@ class DriveThrough(FollowPath):
         return self._to_plane is not None and done is not None and done < self._to_plane
 
     def update(self) -> Status:
-        reason = self._hold_reason()
-        if reason.startswith("door ") and self.closed_fails and self._before_the_door():
+        if self.closed_fails and self._door_not_open() and self._before_the_door():
             self.fleet.stop()
             return self.fail(f"door {self.door_id} closed before the chair reached it")
+        reason = self._hold_reason()
         if reason:
             if not self.held_for:
                 self.fleet.stop()

@@ -4,9 +4,10 @@ After the safety gate has waited ``navigator.recovery_wait_s`` (the first recove
 navigator runs :func:`create_recovery_tree`: back up along the way it came, then turn to
 face the way on (on the spot when nothing stands within the chair's turning radius, else
 by the controller's docking manoeuvre: turns and short drives forwards and back that fit
-the room its LiDAR shows), each bounded by ``navigator.recovery_move_timeout_s`` and each
-reported as a ``recovery`` event; a move that cannot be made is reported and skipped. The navigator
-then re-plans with the points that blocked the chair marked as obstacles.
+the room its LiDAR shows), each bounded by ``navigator.recovery_move_timeout_s`` and
+each reported as a ``recovery`` event; a move that cannot be made is reported and
+skipped. The navigator then re-plans with the points that blocked the chair marked as
+obstacles.
 """
 
 from __future__ import annotations

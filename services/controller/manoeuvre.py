@@ -169,7 +169,9 @@ def plan_manoeuvre(
     within ``costs.max_expansions``."""
     costs = costs or ManoeuvreCosts()
     k0, kg = heading_step(start[2]), heading_step(goal[2])
-    reach = room.res if room.fits(goal[0], goal[1], kg) else costs.goal_slack_m
+    fits = room.fits(goal[0], goal[1], kg)
+    reach = room.res if fits else costs.goal_slack_m  # how near the goal ends the search
+    steps_off = 0 if fits else 1  # and how many heading steps off it
     direct = simple_manoeuvre(room, start, goal)
     if direct is not None:
         return direct
@@ -195,7 +197,7 @@ def plan_manoeuvre(
         expanded += 1
         x, y, k, mode = node_of[key]
         near = math.hypot(goal[0] - x, goal[1] - y) < reach
-        if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= (reach > room.res):
+        if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= steps_off:
             return _poses(_chain(parent, node_of, key))  # there, within the reach
         tail = simple_manoeuvre(room, (x, y, step_heading(k)), goal)
         if tail is not None:
