@@ -86,3 +86,20 @@ def test_guard_reasons() -> None:
         "obstacle",
     )
     assert guard(0.0, 0.0, "arrived", pose_ok=True, scan_stamp=None, **ok)[2] == "arrived"
+
+
+def test_a_precise_pass_beside_an_open_leaf_is_not_stopped() -> None:
+    """Campaign b7.m00 (and most 'blocked (obstacle)' failures next to 0.80-0.95 m doors): a
+    hinged leaf swung open towards the chair lies along its way 0.36 m from the door's centre
+    line, and the stop strip, 5 cm wider than the chair a side, caught it at 0.37 m on every
+    tick of the pass. In a precise pass or docking the strip is only
+    ``controller.precise_side_margin_m`` wider than the chair; what lies ahead still stops it."""
+    fp = ROBOT.footprint
+    leaf = pts(*[(fp.front + d, 0.37) for d in np.arange(0.0, 0.8, 0.02)])
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    assert guard(0.2, 0.0, "following", scan_points=leaf, **ok)[2] == "obstacle"
+    assert guard(0.2, 0.0, "following", scan_points=leaf, precise=True, **ok)[2] == "following"
+    just_inside = fp.width / 2 + CFG.precise_side_margin_m - 0.005
+    for y in (0.0, just_inside):
+        ahead = pts((fp.front + 0.03, y))
+        assert guard(0.2, 0.0, "following", scan_points=ahead, precise=True, **ok)[2] == "obstacle"
