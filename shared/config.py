@@ -293,6 +293,9 @@ class ControllerConfig:
     # proportion when slower, never under stop_min_distance_m (controller/safety.py)
     stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
     stop_min_distance_m: float = field(default=0.05, metadata=check(_non_negative))
+    # the strip's margin a side of the chair in a precise pass or docking, instead of
+    # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
+    precise_side_margin_m: float = field(default=0.02, metadata=check(_non_negative))
     # turning on the spot (slower than turn_check_below_mps): the footprint turned
     # turn_check_deg further must stay clear of scan points
     turn_check_deg: float = field(default=15.0, metadata=check(_positive))

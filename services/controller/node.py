@@ -106,6 +106,7 @@ def main(argv: list[str] | None = None) -> None:
                     cfg.robot,
                     cc,
                     cfg.localisation.scan_band_m,
+                    tracker.precise,
                 )
                 status = FollowStatus(
                     clock.stamp,

@@ -3,7 +3,9 @@
 A command is replaced by zero (and the reason reported as the follow state) when the
 pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when a LiDAR
 point lies in the stop zone: the strip in front of the footprint (behind it when
-reversing), as wide as the chair plus ``robot.side_margin_m`` each side. Its length grows
+reversing), as wide as the chair plus ``robot.side_margin_m`` each side (in a precise pass
+or docking ``controller.precise_side_margin_m``: beside an 0.80 m door an open leaf leaves
+the chair 3-5 cm a side, and the wide strip caught it on every tick). Its length grows
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
 proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
@@ -22,15 +24,22 @@ from shared.geometry import turn_closes_in
 
 
 def stop_zone_hit(
-    points: np.ndarray, robot: RobotConfig, v: float, stop_distance_m: float, band_m: float
+    points: np.ndarray,
+    robot: RobotConfig,
+    v: float,
+    stop_distance_m: float,
+    band_m: float,
+    half_width_m: float | None = None,
 ) -> bool:
     """True if a point (N, 3, robot frame) is in the strip the chair is about to drive into
-    (``robot.clearance_half_width_m`` each side of its centre line)."""
+    (``half_width_m`` each side of its centre line, by default
+    ``robot.clearance_half_width_m``)."""
     if points is None or len(points) == 0 or abs(v) < 1e-3:
         return False
     fp = robot.footprint
+    half = robot.clearance_half_width_m if half_width_m is None else half_width_m
     pts = points[np.abs(points[:, 2]) < band_m]
-    lateral = np.abs(pts[:, 1]) <= robot.clearance_half_width_m
+    lateral = np.abs(pts[:, 1]) <= half
     if v > 0:
         ahead = (pts[:, 0] >= fp.front) & (pts[:, 0] <= fp.front + stop_distance_m)
     else:
@@ -70,15 +79,18 @@ def guard(
     robot: RobotConfig,
     cfg: ControllerConfig,
     band_m: float,
+    precise: bool = False,
 ) -> tuple[float, float, str]:
-    """(v, w, state) after the safety checks; state names the reason when it stops."""
+    """(v, w, state) after the safety checks; state names the reason when it stops.
+    ``precise``: a precise pass or docking, whose strip is narrower (see the module doc)."""
     if not pose_ok:
         return 0.0, 0.0, "stale_pose" if state not in ("arrived", "idle") else state
     if state in ("arrived", "idle"):
         return v, w, state
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
-    if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m):
+    half = robot.footprint.width / 2 + cfg.precise_side_margin_m if precise else None
+    if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m, half):
         return 0.0, 0.0, "obstacle"
     turning = abs(v) < cfg.turn_check_below_mps
     angle = np.radians(cfg.turn_check_deg)
