@@ -103,3 +103,15 @@ def test_a_precise_pass_beside_an_open_leaf_is_not_stopped() -> None:
     for y in (0.0, just_inside):
         ahead = pts((fp.front + 0.03, y))
         assert guard(0.2, 0.0, "following", scan_points=ahead, precise=True, **ok)[2] == "obstacle"
+
+
+def test_a_slow_turn_is_checked_over_the_next_second_not_over_turn_check_deg() -> None:
+    """Campaign b11.m08: leaving a 0.85 m door, the MPC crept on at 0.04 m/s turning 0.1
+    rad/s towards the open leaf 6 cm beside the rear axle. The turn check swung the footprint
+    a full 15 degrees, which brings that leaf to 4.7 cm, and held the chair for 50 s. It now
+    turns the footprint by what the chair turns in ``controller.turn_check_s`` (at most
+    ``turn_check_deg``); a quick turn on the spot is still stopped."""
+    beside_axle = pts((0.0, ROBOT.footprint.width / 2 + 0.06))
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    assert guard(0.04, 0.1, "following", scan_points=beside_axle, **ok)[2] == "following"
+    assert guard(0.0, 0.6, "following", scan_points=beside_axle, **ok)[2] == "obstacle"
