@@ -296,9 +296,11 @@ class ControllerConfig:
     # the strip's margin a side of the chair in a precise pass or docking, instead of
     # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
     precise_side_margin_m: float = field(default=0.02, metadata=check(_non_negative))
-    # turning on the spot (slower than turn_check_below_mps): the footprint turned
-    # turn_check_deg further must stay clear of scan points
+    # turning on the spot (slower than turn_check_below_mps): the footprint turned as far
+    # as the chair turns in turn_check_s, at most turn_check_deg, must stay clear of scan
+    # points (a slow turn was checked 15 degrees ahead and held beside an open leaf)
     turn_check_deg: float = field(default=15.0, metadata=check(_positive))
+    turn_check_s: float = field(default=1.0, metadata=check(_positive))
     turn_check_below_mps: float = field(default=0.05, metadata=check(_non_negative))
     # an MPC leg whose distance to go has not shrunk by stall_progress_m for stall_s
     # (following all the while) reports "blocked", so the navigator's recoveries start

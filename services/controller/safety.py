@@ -10,9 +10,11 @@ with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed
 proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
 door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
-the footprint turned ``turn_check_deg`` further must not come within the side margin of
-a point, nor nearer to one already that near (a corner swinging on into a wall). Pure:
-points come in the robot frame.
+the footprint turned as far as the chair turns in ``turn_check_s`` (at most
+``turn_check_deg``) must not come within the side margin of a point, nor nearer to one
+already that near (a corner swinging on into a wall); a slow turn checked a full 15
+degrees ahead held the chair beside an open leaf it was creeping away from. Pure: points
+come in the robot frame.
 """
 
 from __future__ import annotations
@@ -93,7 +95,7 @@ def guard(
     if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m, half):
         return 0.0, 0.0, "obstacle"
     turning = abs(v) < cfg.turn_check_below_mps
-    angle = np.radians(cfg.turn_check_deg)
+    angle = min(np.radians(cfg.turn_check_deg), abs(w) * cfg.turn_check_s)
     if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m):
         return 0.0, 0.0, "obstacle"
     return v, w, state
