@@ -115,3 +115,18 @@ def test_a_slow_turn_is_checked_over_the_next_second_not_over_turn_check_deg() -
     ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
     assert guard(0.04, 0.1, "following", scan_points=beside_axle, **ok)[2] == "following"
     assert guard(0.0, 0.6, "following", scan_points=beside_axle, **ok)[2] == "obstacle"
+
+
+def test_a_docking_turn_is_checked_with_the_margin_the_manoeuvre_was_planned_with() -> None:
+    """Campaign b0.m03 and b10.m00: in the 2.3 m room between two doors in series the
+    docking manoeuvre, planned with a margin down to 2.5 cm, turned the chair's rear corner
+    past an open leaf; the turn check held it at 5 cm ('not converging: stopped 0.015 m,
+    31 deg off'), three times, until the mission gave up. In a precise pass or docking the
+    turn check keeps ``controller.precise_side_margin_m``, as the stop strip does."""
+    fp = ROBOT.footprint
+    leaf = pts((-fp.rear + 0.02, fp.width / 2 + 0.06))  # beside the rear-left corner
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    assert guard(0.0, -0.5, "following", scan_points=leaf, **ok)[2] == "obstacle"
+    assert guard(0.0, -0.5, "following", scan_points=leaf, precise=True, **ok)[2] == "following"
+    touching = pts((-fp.rear + 0.02, fp.width / 2 + 0.04))
+    assert guard(0.0, -0.5, "following", scan_points=touching, precise=True, **ok)[2] == "obstacle"
