@@ -5,7 +5,8 @@ pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when 
 point lies in the stop zone: the strip in front of the footprint (behind it when
 reversing), as wide as the chair plus ``robot.side_margin_m`` each side (in a precise pass
 or docking ``controller.precise_side_margin_m``: beside an 0.80 m door an open leaf leaves
-the chair 3-5 cm a side, and the wide strip caught it on every tick). Its length grows
+the chair 3-5 cm a side, and the wide strip caught it on every tick; the turn check below
+keeps the same margin, which a docking manoeuvre is planned with). Its length grows
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
 proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
@@ -50,18 +51,24 @@ def stop_zone_hit(
 
 
 def turn_sweep_hit(
-    points: np.ndarray, robot: RobotConfig, w: float, angle_rad: float, band_m: float
+    points: np.ndarray,
+    robot: RobotConfig,
+    w: float,
+    angle_rad: float,
+    band_m: float,
+    margin_m: float | None = None,
 ) -> bool:
     """True if turning on the spot by ``angle_rad`` (the sign of ``w``) brings a point (N, 3,
-    robot frame) within ``robot.side_margin_m`` of the footprint, or one already that near
-    nearer still: the corners of a chair turning in a small room sweep a circle the stop
-    strip ahead never sees."""
+    robot frame) within ``margin_m`` (by default ``robot.side_margin_m``) of the footprint,
+    or one already that near nearer still: the corners of a chair turning in a small room
+    sweep a circle the stop strip ahead never sees."""
     if points is None or len(points) == 0 or abs(w) < 1e-3:
         return False
     fp = robot.footprint
+    margin = robot.side_margin_m if margin_m is None else margin_m
     pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
     angle = float(np.sign(w)) * angle_rad
-    return turn_closes_in(pts, fp.front, fp.rear, fp.width, robot.side_margin_m, angle)
+    return turn_closes_in(pts, fp.front, fp.rear, fp.width, margin, angle)
 
 
 def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
@@ -84,18 +91,19 @@ def guard(
     precise: bool = False,
 ) -> tuple[float, float, str]:
     """(v, w, state) after the safety checks; state names the reason when it stops.
-    ``precise``: a precise pass or docking, whose strip is narrower (see the module doc)."""
+    ``precise``: a precise pass or docking, whose margins are narrower (see the module doc)."""
     if not pose_ok:
         return 0.0, 0.0, "stale_pose" if state not in ("arrived", "idle") else state
     if state in ("arrived", "idle"):
         return v, w, state
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
-    half = robot.footprint.width / 2 + cfg.precise_side_margin_m if precise else None
+    margin = cfg.precise_side_margin_m if precise else robot.side_margin_m
+    half = robot.footprint.width / 2 + margin
     if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m, half):
         return 0.0, 0.0, "obstacle"
     turning = abs(v) < cfg.turn_check_below_mps
     angle = min(np.radians(cfg.turn_check_deg), abs(w) * cfg.turn_check_s)
-    if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m):
+    if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, margin):
         return 0.0, 0.0, "obstacle"
     return v, w, state
