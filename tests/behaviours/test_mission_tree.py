@@ -21,6 +21,7 @@ from shared.messages import (
     LiftDoor,
     LiftMotion,
     LiftState,
+    Path,
     Phase,
     Pose2D,
     RouteReply,
@@ -282,19 +283,33 @@ def test_a_short_leg_is_left_to_position_correction() -> None:
     assert fleet.sent[-1].path_id == "Correct d1 #1"
 
 
-def test_doors_in_series_are_one_passage_the_room_between_docked_not_followed() -> None:
+@pytest.mark.parametrize(
+    "inner_xy, between_pts",
+    [
+        ((4.5, 1.3), [(3.2, 0.0), (4.5, 1.3)]),  # 1.84 m, straight
+        # campaign b10.m00: the planner's path in the room bends (1.79 m for a 1.26 m line),
+        # and the path follower was held in the room until three recoveries gave up
+        ((4.3, 1.0), [(3.2, 0.0), (3.2, 1.0), (4.3, 1.0)]),  # 2.1 m for a 1.49 m line
+    ],
+    ids=["straight", "bent"],
+)
+def test_doors_in_series_are_one_passage_the_room_between_docked_not_followed(
+    inner_xy: tuple[float, float], between_pts: list[tuple[float, float]]
+) -> None:
     # campaign b0.m03: an inner and an outer door 2.2 m apart, their centre lines 1.3 m
     # apart; from the outer door's exit the path follower could not turn in the room
     # between ("blocked" at once, then three recoveries backing into the doorway). The
-    # short straight leg between the two doors is docked instead: turn, drive, turn.
+    # short leg between the two doors is docked instead: turn, drive, turn (a manoeuvre
+    # where the room needs one).
     blackboard()
     fleet = ScriptedFleet(None)
     outer = door(door_id="outer")
+    x, y = inner_xy
     inner = Checkpoint(
-        "door", "inner", "1", Pose2D(4.5, 1.3, 0, "1"), Pose2D(6.7, 1.3, 0, "1"), 2.2, "manual", 1.0
+        "door", "inner", "1", Pose2D(x, y, 0, "1"), Pose2D(x + 2.2, y, 0, "1"), 2.2, "manual", 1.0
     )
-    between = leg("r.1", (3.2, 0.0), (4.5, 1.3))  # 1.84 m, straight
-    after = leg("r.2", (6.7, 1.3), (9.0, 1.3))
+    between = Path(0.0, "r.1", "1", np.array(between_pts, float), np.full(len(between_pts), 0.5))
+    after = leg("r.2", (x + 2.2, y), (9.0, y))
     tree = route_tree(
         RouteReply(True, leg("r"), legs=[leg("r.0"), between, after], checkpoints=[outer, inner]),
         fleet,
