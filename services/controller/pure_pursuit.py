@@ -7,12 +7,6 @@ backwards), faces the path before setting off, steers towards a point ``lookahea
 further on, turns on the spot when that point is far off the heading, takes the speed
 from the path's ``v_ref`` and stops within ``goal_tolerance_m`` of the last waypoint.
 A stale pose gives a zero command.
-
-With ``steer_front`` (precise passes) it steers the chair's leading end instead of its
-rear axle: that end's distance from the path shrinks by itself over ``lookahead_m`` of
-travel, never swinging past the path. Pursuit of the axle swung the front past the
-line when a pass began a few centimetres beside it, towards the far jamb or an open
-leaf, where an 0.80 m door leaves 3-5 cm.
 """
 
 from __future__ import annotations
@@ -41,22 +35,14 @@ class PathFollower:
         self._s = np.zeros(0)
         self._progress_s = 0.0
         self._arrived = False
-        self.steer_front = False
 
     def set_path(
-        self,
-        path_id: str,
-        waypoints: np.ndarray,
-        v_ref: np.ndarray,
-        reverse: bool = False,
-        steer_front: bool = False,
+        self, path_id: str, waypoints: np.ndarray, v_ref: np.ndarray, reverse: bool = False
     ) -> None:
         """Start following ``waypoints`` (N, 2) with speeds ``v_ref`` (N,), backwards if
-        ``reverse`` (out of a lift car, where the chair cannot turn); ``steer_front``:
-        steer the leading end of the chair onto the path (see the module doc)."""
+        ``reverse`` (out of a lift car, where the chair cannot turn)."""
         self.path_id = path_id
         self.reverse = reverse
-        self.steer_front = steer_front
         self._pts = np.asarray(waypoints, dtype=float)
         self._v = np.asarray(v_ref, dtype=float)
         legs = np.linalg.norm(np.diff(self._pts, axis=0), axis=1) if len(self._pts) else []
@@ -100,29 +86,10 @@ class PathFollower:
         v_ref = float(np.interp(self._progress_s, self._s, self._v))
         v_ref = max(v_ref, min(0.1, v_max)) if to_goal > self.cfg.goal_tolerance_m else 0.0
         v = min(v_ref, v_max) * max(0.0, math.cos(alpha))
-        if self.steer_front:
-            w = self._front_turn_rate(x, y, theta, v)
-        else:
-            dist = max(float(math.hypot(target[0] - x, target[1] - y)), 1e-6)
-            w = 2.0 * v * math.sin(alpha) / dist  # pure-pursuit curvature times speed
+        dist = max(float(math.hypot(target[0] - x, target[1] - y)), 1e-6)
+        w = 2.0 * v * math.sin(alpha) / dist  # pure-pursuit curvature times speed
         w = max(-w_max, min(w_max, w))
         return Command(-v if self.reverse else v, w, "following", progress, to_goal, cross)
-
-    def _front_turn_rate(self, x: float, y: float, theta: float, v: float) -> float:
-        """The turn rate that makes the leading end's signed distance ``e`` from the path
-        shrink as ``de/dt = -v e / lookahead_m``, from ``de/dt = v sin(psi) + d cos(psi) w``
-        (``d``: how far the end is ahead of the axle, ``psi``: heading off the path's)."""
-        fp = self.robot.footprint
-        d = fp.rear if self.reverse else fp.front
-        a = self._point_at(self._progress_s)
-        b = self._point_at(self._progress_s + 0.05)
-        if float(np.hypot(*(b - a))) < 1e-6:  # at the end: the last segment's direction
-            a, b = self._pts[-2], self._pts[-1]
-        ux, uy = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
-        fx, fy = x + d * math.cos(theta) - a[0], y + d * math.sin(theta) - a[1]
-        e = ux * fy - uy * fx
-        psi = wrap_angle(theta - math.atan2(uy, ux))
-        return (-v * e / self.cfg.lookahead_m - v * math.sin(psi)) / (d * max(math.cos(psi), 0.5))
 
     def _project(self, p: np.ndarray) -> tuple[float, float]:
         """Arc length of the closest path point at or ahead of current progress, and distance."""
