@@ -313,6 +313,10 @@ class ControllerConfig:
     dock_speed_gain: float = field(default=0.8, metadata=check(_positive))
     dock_turn_gain: float = field(default=2.0, metadata=check(_positive))
     dock_near_m: float = field(default=0.1, metadata=check(_positive))
+    # before a door the error across the goal heading left after docking is taken out by
+    # a sidestep (back up slantwise onto the line, drive along it) when over this: the
+    # chair enters a doorway within 3 cm of its centre only from a pose near the line
+    dock_lateral_tolerance_m: float = field(default=0.015, metadata=check(_positive))
     dock_reverse_reach_m: float = field(default=1.0, metadata=check(_non_negative))
     mpc: MPCConfig = field(default_factory=MPCConfig)
 

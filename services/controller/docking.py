@@ -76,6 +76,7 @@ class DockLimits:
     turn_gain: float  # 1/s: w = gain * heading error
     near_m: float
     reverse_reach_m: float
+    lateral_tolerance_m: float = 0.015
 
     @classmethod
     def from_config(cls, cfg: ControllerConfig, robot: RobotConfig) -> DockLimits:
@@ -89,6 +90,7 @@ class DockLimits:
             turn_gain=cfg.dock_turn_gain,
             near_m=cfg.dock_near_m,
             reverse_reach_m=cfg.dock_reverse_reach_m,
+            lateral_tolerance_m=cfg.dock_lateral_tolerance_m,
         )
 
 
