@@ -62,6 +62,9 @@ ROOM_CELL_M = 0.05  # the grid a manoeuvre is planned on
 ROOM_REACH_M = 1.5  # how far round the pose and the goal the room is taken from the points
 PLAN_SLACK_M = 0.03  # a manoeuvre keeps this much more than the margin: poses are reached
 # within VIA_TOLERANCE_M, and the safety checks must never hold one of its turns
+SIDESTEP_RAD = math.radians(20)  # a sidestep backs up at most this far off the goal heading
+SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a real move)
+SIDESTEPS = 2  # at most this many per goal
 
 
 @dataclass
@@ -128,6 +131,7 @@ class Docker:
         """Dock at (x, y) facing ``heading``; ``max_speed`` caps the speed (idle motion)."""
         self._target, self._via, self._planned = (x, y, heading), [], False
         self._still_s, self._still_at, self._cramped = 0.0, None, False
+        self._sidesteps = 0
         self._aim(
             x, y, heading, self.limits.position_tolerance_m, self.limits.heading_tolerance_rad
         )
@@ -245,10 +249,31 @@ class Docker:
             else:
                 self._aim(*self._target, lim.position_tolerance_m, lim.heading_tolerance_rad)
             return Command(0.0, 0.0, "following", progress, dist, 0.0)
+        if done and self._sidestep(x, y):
+            return Command(0.0, 0.0, "following", progress, dist, 0.0)
         if done:
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         return Command(v, w, "following", progress, dist, 0.0)
+
+    def _sidestep(self, x: float, y: float) -> bool:
+        """At the goal with more than ``lateral_tolerance_m`` across its heading: dock first
+        at a pose on the goal's line behind it (backing up slantwise, at most
+        ``SIDESTEP_RAD`` off the heading), then along the line to the goal. False (arrive
+        as it stands) when the footprint there would hold a point, or after ``SIDESTEPS``."""
+        gx, gy, gth = self._target
+        c, s = math.cos(gth), math.sin(gth)
+        across = -(x - gx) * s + (y - gy) * c
+        if abs(across) <= self.limits.lateral_tolerance_m or self._sidesteps >= SIDESTEPS:
+            return False
+        along = (x - gx) * c + (y - gy) * s
+        back = max(SIDESTEP_MIN_M, abs(across) / math.tan(SIDESTEP_RAD)) - along
+        via = (gx - back * c, gy - back * s, gth)
+        if not self._fits_at(via, gth, self._obstacles):
+            return False
+        self._sidesteps += 1
+        self._aim(*via, VIA_TOLERANCE_M, VIA_HEADING_RAD)
+        return True
 
     def _move(
         self, ex: float, ey: float, dist: float, theta: float, obstacles: np.ndarray | None
@@ -323,10 +348,17 @@ class Docker:
     def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
         """True if the footprint (grown by ``margin_m``) at the goal point facing
         ``heading`` holds none of ``pts`` (always, without points)."""
+        return self._fits_at(self.goal, heading, pts)
+
+    def _fits_at(
+        self, pose: tuple[float, float, float], heading: float, pts: np.ndarray | None
+    ) -> bool:
+        """True if the footprint (grown by ``margin_m``) at ``pose``'s point facing
+        ``heading`` holds none of ``pts`` (always, without points)."""
         fp = self.footprint
         if pts is None or fp is None or len(pts) == 0:
             return True
-        gx, gy, _ = self.goal
+        gx, gy, _ = pose
         c, s = math.cos(heading), math.sin(heading)
         dx, dy = pts[:, 0] - gx, pts[:, 1] - gy
         local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
