@@ -59,6 +59,7 @@ class ScriptedFleet:
         self.avoided: set[str] = set()
         self.turn_room = True
         self.marked = 0
+        self.forgotten = 0
 
     def now(self) -> float:
         return self.t
@@ -121,6 +122,9 @@ class ScriptedFleet:
     def mark_blocking(self) -> int:
         self.marked += 1
         return 3
+
+    def forget_blocking(self) -> None:
+        self.forgotten += 1
 
     def lift_state(self, lift_id: str):
         return self.lifts.get(lift_id)

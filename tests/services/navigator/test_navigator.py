@@ -293,3 +293,30 @@ def test_with_no_room_to_turn_on_the_spot_the_turn_recovery_manoeuvres() -> None
     turns = [d for k, d in fleet.events if k == "recovery" and d.startswith("turn in place")]
     assert turns and turns[0].endswith("(no room on the spot: manoeuvre)"), fleet.events
     assert docks, "the turn is sent to the controller as a docking manoeuvre"
+
+
+def test_a_re_plan_that_the_marked_points_shut_off_plans_again_without_them() -> None:
+    # campaign b8.m07: held before a door in a narrow room, the recovery marked the scan
+    # points ahead (the door's jambs among them); the re-plan around them found no path
+    # and the mission failed with NO_PATH, though the way was open. The marks are a hint,
+    # not a wall: a re-plan they shut off is tried once more without them.
+    no_way = RouteReply(False, error_code="NO_PATH", error="goal cell unreachable")
+    fleet = ScriptedFleet(AROUND, routes=[AROUND, no_way, AROUND])
+    nav, out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    while nav.status.state == "running" and len(fleet.route_requests) < 3 and fleet.t < 30.0:
+        fleet.t += 0.5
+        step(nav, fleet)
+        last = fleet.sent[-1]
+        if last.reverse or last.dock_heading is not None:
+            fleet.arrive()
+            step(nav, fleet)
+    step(nav, fleet)
+    assert len(fleet.route_requests) == 3, (nav.status, fleet.events)
+    assert fleet.forgotten == 1
+    assert nav.status.state == "running", nav.status.reason
+    assert any(d.startswith("re-plan without the marked points") for _, d in fleet.events)
+    fleet.arrive()
+    assert step(nav, fleet).state == "succeeded"
