@@ -81,6 +81,9 @@ class Fleet(Protocol):
         """Remember the scan points just ahead of the chair as obstacles for the route
         requests of this mission (a re-plan goes around them); how many were marked."""
 
+    def forget_blocking(self) -> None:
+        """Drop every point :meth:`mark_blocking` remembered (a re-plan they shut off)."""
+
     def lift_state(self, lift_id: str) -> LiftState | None:
         """The building's last LiftState of ``lift_id``."""
 

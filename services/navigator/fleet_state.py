@@ -162,6 +162,9 @@ class FleetState:
         del self.blocking[:-400]
         return len(near)
 
+    def forget_blocking(self) -> None:
+        self.blocking.clear()
+
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         if self._scan is None or self._pose is None:
             return -1.0, UNKNOWN

@@ -94,6 +94,7 @@ class Navigator:
         self.replans = 0
         self.recoveries = 0
         self.recovering = False  # the recovery tree runs (between a hold and a re-plan)
+        self.around_marks = False  # the plan tree runs a re-plan around marked points
         self.fallbacks: list[str] = []
         self._steps_of: list[py_trees.behaviour.Behaviour] = []
         self._last_sent: tuple | None = None
@@ -138,6 +139,7 @@ class Navigator:
         self.replans = 0
         self.recoveries = 0
         self.fallbacks = []
+        self.around_marks = False
         self._plan()
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
         self.log.info("mission %s to %s", msg.goal_id, target)
@@ -157,7 +159,7 @@ class Navigator:
                 self._drive(self.bb.route)
             elif result == Status.SUCCESS:
                 self._set("succeeded", reason="arrived")
-            elif result == Status.FAILURE and self._replan():
+            elif result == Status.FAILURE and (self._unmark() or self._replan()):
                 pass
             elif result == Status.FAILURE:
                 self._set("failed", reason=self._failure_reason())
@@ -187,7 +189,7 @@ class Navigator:
     def _drive(self, route: RouteReply) -> None:
         """The plan tree got ``route``: drive it, starting its first step now (its phase is
         the status's)."""
-        self.driving = True
+        self.driving, self.around_marks = True, False
         self.out.publish_route(route)
         self._grow(create_route_tree(route, self.fleet.now, self.entry))
         self.tree.tick()
@@ -266,7 +268,22 @@ class Navigator:
         self.recovering = False
         self.fleet.event("recovery", "re-plan: around the marked points, from here")
         self._plan()
+        self.around_marks = True
         self._set("running", phase=Phase.PLAN, action="re-plan")
+
+    def _unmark(self) -> bool:
+        """A re-plan around marked points found no path: the marks (scan points ahead of
+        a hold, a doorway's jambs among them) are a hint, not a wall; forget them and plan
+        once more. False if the failed plan was not such a re-plan."""
+        if self.driving or not self.around_marks or "NO_PATH" not in self.bb.failure:
+            return False
+        self.around_marks = False
+        self.fleet.forget_blocking()
+        self.fleet.event("recovery", "re-plan without the marked points: they shut every way")
+        self.bb.failure = ""
+        self._plan()
+        self._set("running", phase=Phase.PLAN, action="re-plan")
+        return True
 
     def _way_on(self) -> tuple[float, float]:
         """The point to face after backing up: 1.5 m on along the route being driven from
