@@ -239,3 +239,16 @@ def test_no_sidestep_where_there_is_no_room_behind() -> None:
         if cmd.state == "arrived":
             break
     assert cmd.state == "arrived"
+
+
+def test_a_turn_nearly_done_checks_only_what_is_left_of_it() -> None:
+    """Campaign b3.m03: in a small room, 14 deg short of its heading, the docker checked a
+    15 deg turn, found a corner sweeping near the open leaf, turned the long way round
+    (340 deg) and ran out Phase 0's 20 s. A point that only a turn further than what is
+    left would come near does not send it the long way."""
+    fp = RobotConfig().footprint
+    point = np.array([[0.7011, 0.5094]])  # left of the front: a 15 deg left turn nears it
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, math.radians(10))  # 10 deg to the left: the short way
+    cmd = docker.step(0.0, 0.0, 0.0, obstacles=point)
+    assert cmd.v == 0.0 and cmd.w > 0.0
