@@ -295,7 +295,7 @@ class Docker:
         if abs(bearing) > ALIGN_RAD:
             if dist <= lim.near_m:
                 return "near"
-            return 0.0, self._turn(math.copysign(max(MIN_TURN, abs(w)), w))
+            return 0.0, self._turn(math.copysign(max(MIN_TURN, abs(w)), w), abs(bearing))
         self._turn_sign = 0.0
         v = self._speed(dist) * math.cos(bearing)
         return (-v if backwards else v), w
@@ -309,7 +309,7 @@ class Docker:
         turn = lim.turn_gain * abs(heading_err)
         w = math.copysign(max(MIN_TURN, min(lim.max_turn, turn)), heading_err)
         if abs(heading_err) > max(self._tol_heading, ALIGN_RAD / 2):
-            return 0.0, self._turn(w), False
+            return 0.0, self._turn(w, abs(heading_err)), False
         self._turn_sign = 0.0
         along = ex * math.cos(goal_heading) + ey * math.sin(goal_heading)
         if abs(along) > self._tol:
@@ -318,23 +318,24 @@ class Docker:
             return 0.0, w, False
         return 0.0, 0.0, True
 
-    def _turn(self, w: float) -> float:
-        """``w`` for a turn on the spot, or the other way round when this way would sweep
-        a corner into an obstacle point and the other way would not (a wall or an open
-        leaf on one side in the small room between two doors); kept until aligned."""
+    def _turn(self, w: float, left_rad: float = SWEEP_RAD) -> float:
+        """``w`` for a turn on the spot (``left_rad`` of it to go), or the other way round
+        when this way would sweep a corner into an obstacle point and the other way would
+        not (a wall or an open leaf on one side in the small room between two doors); kept
+        until aligned."""
         if self._turn_sign:
             return math.copysign(abs(w), self._turn_sign)
-        if self._sweeps(w):
+        if self._sweeps(w, left_rad):
             self._cramped = True  # the short way is held: a manoeuvre may be needed
             if not self._sweeps(-w):
                 self._turn_sign = -math.copysign(1.0, w)
                 return -w
         return w
 
-    def _sweeps(self, w: float) -> bool:
-        """True if turning on the spot ``SWEEP_RAD`` the way of ``w`` brings an obstacle
-        point within ``margin_m`` of the footprint, or one already that near nearer still
-        (none, without points)."""
+    def _sweeps(self, w: float, left_rad: float = SWEEP_RAD) -> bool:
+        """True if turning on the spot the way of ``w``, ``SWEEP_RAD`` or the ``left_rad``
+        still to go if less, brings an obstacle point within ``margin_m`` of the footprint,
+        or one already that near nearer still (none, without points)."""
         fp, pts = self.footprint, self._obstacles
         if pts is None or fp is None or len(pts) == 0:
             return False
@@ -342,7 +343,7 @@ class Docker:
         c, s = math.cos(theta), math.sin(theta)
         dx, dy = pts[:, 0] - x, pts[:, 1] - y
         local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
-        angle = math.copysign(SWEEP_RAD, w)
+        angle = math.copysign(min(SWEEP_RAD, left_rad), w)
         return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
 
     def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
