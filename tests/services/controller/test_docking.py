@@ -163,12 +163,9 @@ def test_a_turn_on_the_spot_goes_the_other_way_round_when_a_corner_would_sweep_a
     assert clear.step(0.0, 0.0, 0.0, obstacles=np.zeros((0, 2))).w > 0  # the short way
 
 
-def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> None:
-    """Campaign b4.m07: the room between two doors in series is 2.08 x 2.0 m; from the
-    first door's exit pose to the second door's approach pose (0.8 m to the right, facing
-    the same way) neither pose leaves room to turn on the spot, and the safety checks held
-    every turn-drive-turn: the chair stood until the recoveries gave up. Here the docker
-    runs with those same safety checks on the room's points."""
+def dock_in_series_room(start: tuple[float, float, float], goal: tuple[float, float, float]):
+    """Dock in campaign b4.m07's room between two doors in series with the controller's
+    safety checks on the room's points in the loop; (command, x, y, th, t, nearest gap)."""
     from services.controller.safety import guard
     from tests.services.controller.test_manoeuvre import series_room
 
@@ -177,8 +174,8 @@ def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> Non
     r, c = np.nonzero(occ)
     walls = np.column_stack((ox + (c + 0.5) * 0.05, oy + (r + 0.5) * 0.05))
     docker = Docker(DOCK, robot.footprint, robot.side_margin_m)
-    docker.set_goal(1.19, 0.53, 0.0)
-    x, y, th, v, w = 1.01, 1.33, 0.0, 0.0, 0.0
+    docker.set_goal(*goal)
+    (x, y, th), v, w = start, 0.0, 0.0
     dt, t, nearest = 1.0 / RATE, 0.0, math.inf
     while t < 90.0:
         near = walls[np.hypot(walls[:, 0] - x, walls[:, 1] - y) < 3.0]
@@ -201,10 +198,32 @@ def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> Non
         )
         nearest = min(nearest, float(gap.min()) - 0.025)  # cell centres: half a cell off
         t += dt
+    return cmd, x, y, th, t, nearest
+
+
+def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> None:
+    """Campaign b4.m07: the room between two doors in series is 2.08 x 2.0 m; from the
+    first door's exit pose to the second door's approach pose (0.8 m to the right, facing
+    the same way) neither pose leaves room to turn on the spot, and the safety checks held
+    every turn-drive-turn: the chair stood until the recoveries gave up. Here the docker
+    runs with those same safety checks on the room's points."""
+    cmd, x, y, th, t, nearest = dock_in_series_room((1.01, 1.33, 0.0), (1.19, 0.53, 0.0))
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
     assert math.hypot(x - 1.19, y - 0.53) <= DOCK.position_tolerance_m
     assert abs(wrap_angle(th)) <= DOCK.heading_tolerance_rad + 1e-3
     assert nearest > 0.0  # never touched a wall
+
+
+def test_at_the_goal_point_but_turned_away_it_manoeuvres_where_it_cannot_turn() -> None:
+    """Campaign b5.m03: in the room between two doors in series the chair backed up onto
+    the second door's approach point facing 90 deg off, where neither way round fits; the
+    docker planned no manoeuvre because the point was reached (only the heading was not)
+    and the safety checks held the turn until the recoveries gave up."""
+    cmd, x, y, th, t, nearest = dock_in_series_room((0.6, 0.5, 1.6), (0.6, 0.5, 0.0))
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    assert math.hypot(x - 0.6, y - 0.5) <= DOCK.position_tolerance_m
+    assert abs(wrap_angle(th)) <= DOCK.heading_tolerance_rad + 1e-3
+    assert nearest > 0.0
 
 
 @pytest.mark.parametrize("start", [(0.0, 0.045, 0.0), (0.03, -0.07, 0.03), (-0.02, 0.09, -0.05)])
