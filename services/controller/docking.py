@@ -173,8 +173,9 @@ class Docker:
         fp, goal = self.footprint, self._target
         if fp is None or goal is None or obstacles is None or len(obstacles) == 0:
             return
-        if math.hypot(goal[0] - x, goal[1] - y) <= self.limits.position_tolerance_m:
-            return
+        near = math.hypot(goal[0] - x, goal[1] - y) <= self.limits.position_tolerance_m
+        if near and abs(wrap_angle(goal[2] - theta)) <= self.limits.heading_tolerance_rad:
+            return  # there already (a turn that does not fit still needs a manoeuvre)
         lo = np.minimum((x, y), goal[:2]) - ROOM_REACH_M
         hi = np.maximum((x, y), goal[:2]) + ROOM_REACH_M
         shape = np.ceil((hi - lo) / ROOM_CELL_M).astype(int)
@@ -212,11 +213,11 @@ class Docker:
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
         self._pose, self._obstacles = (x, y, theta), obstacles
-        if (
-            (self._stuck(x, y, theta, period_s) or self._cramped)
-            and not self._planned
-            and pose_fresh
-        ):
+        target = self._target or self.goal
+        there = math.hypot(target[0] - x, target[1] - y) <= self.limits.position_tolerance_m
+        # a turn at the goal point the short way held: the long way first; stuck: manoeuvre
+        cramped = self._cramped and not there
+        if (self._stuck(x, y, theta, period_s) or cramped) and not self._planned and pose_fresh:
             self._plan(x, y, theta, obstacles)
         lim = self.limits
         gx, gy, gth = self.goal
