@@ -271,3 +271,30 @@ def test_a_turn_nearly_done_checks_only_what_is_left_of_it() -> None:
     docker.set_goal(0.0, 0.0, math.radians(10))  # 10 deg to the left: the short way
     cmd = docker.step(0.0, 0.0, 0.0, obstacles=point)
     assert cmd.v == 0.0 and cmd.w > 0.0
+
+
+def test_a_long_sidestep_beside_a_wall_keeps_a_slant_that_fits() -> None:
+    """Campaign b8.m08: 17 cm beside the approach line of an 0.80 m door, a corridor wall
+    0.45 m to the other side of the line. Backing up 20 deg slantwise would put the rear
+    corner into that wall, so the move stage drove straight back and forth along the
+    heading, the error across unchanged, until Phase 0's limit. A shallower slant, backing
+    up further, fits."""
+    fp = RobotConfig().footprint
+    ys = np.arange(-3.0, 3.0, 0.02)
+    wall = np.column_stack((np.arange(-3.0, 1.0, 0.02), np.full(200, -0.45)))
+    front = np.array([[x, y] for x in (0.9, 1.0, 1.1) for y in ys if abs(y) > 0.4])
+    pts = np.vstack((wall, front))
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, 0.0)
+    x, y, th, v, w = 0.0, 0.17, 0.0, 0.0, 0.0
+    dt, t = 1.0 / RATE, 0.0
+    while t < 30.0:
+        cmd = docker.step(x, y, th, obstacles=pts, period_s=dt)
+        if cmd.state == "arrived":
+            break
+        v += (cmd.v - v) * dt / LAG_S
+        w += (cmd.w - w) * dt / LAG_S
+        x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
+        t += dt
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 3), round(th, 2))
+    assert abs(y) <= DOCK.lateral_tolerance_m + 1e-3, (round(x, 3), round(y, 3), round(t, 1))
