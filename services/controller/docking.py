@@ -64,6 +64,7 @@ PLAN_SLACK_M = 0.03  # a manoeuvre keeps this much more than the margin: poses a
 # within VIA_TOLERANCE_M, and the safety checks must never hold one of its turns
 SIDESTEP_RAD = math.radians(20)  # a sidestep backs up at most this far off the goal heading
 SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a real move)
+SIDESTEP_REACH = 0.9  # and at most this share of reverse_reach_m (it must back up to it)
 SIDESTEPS = 2  # at most this many per goal
 
 
@@ -259,18 +260,30 @@ class Docker:
 
     def _sidestep(self, x: float, y: float) -> bool:
         """At the goal with more than ``lateral_tolerance_m`` across its heading: dock first
-        at a pose on the goal's line behind it (backing up slantwise, at most
-        ``SIDESTEP_RAD`` off the heading), then along the line to the goal. False (arrive
-        as it stands) when the footprint there would hold a point, or after ``SIDESTEPS``."""
+        at a pose on the goal's line behind it, then along the line to the goal. The chair
+        backs up to it slantwise, as shallow as ``SIDESTEP_REACH`` of the reverse reach
+        allows (under ALIGN_RAD it steers while backing instead of turning on the spot),
+        at most ``SIDESTEP_RAD`` off the heading. False (arrive as it stands) when the
+        footprint there, facing the goal heading or the slant, would hold a point, or
+        after ``SIDESTEPS``."""
         gx, gy, gth = self._target
         c, s = math.cos(gth), math.sin(gth)
         across = -(x - gx) * s + (y - gy) * c
         if abs(across) <= self.limits.lateral_tolerance_m or self._sidesteps >= SIDESTEPS:
             return False
         along = (x - gx) * c + (y - gy) * s
-        back = max(SIDESTEP_MIN_M, abs(across) / math.tan(SIDESTEP_RAD)) - along
-        via = (gx - back * c, gy - back * s, gth)
-        if not self._fits_at(via, gth, self._obstacles):
+        reach = SIDESTEP_REACH * self.limits.reverse_reach_m
+        shallow = max(0.9 * ALIGN_RAD, math.atan2(abs(across), reach))
+        for slant in sorted({min(shallow, SIDESTEP_RAD), SIDESTEP_RAD}):
+            back = max(SIDESTEP_MIN_M, abs(across) / math.tan(slant))
+            if math.hypot(back, across) > self.limits.reverse_reach_m:
+                continue
+            via = (gx + (along - back) * c, gy + (along - back) * s, gth)
+            travel = math.atan2(y - via[1], x - via[0])  # the heading it backs up along
+            obstacles = self._obstacles
+            if self._fits_at(via, gth, obstacles) and self._fits_at(via, travel, obstacles):
+                break
+        else:
             return False
         self._sidesteps += 1
         self._aim(*via, VIA_TOLERANCE_M, VIA_HEADING_RAD)
