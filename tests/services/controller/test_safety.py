@@ -130,3 +130,18 @@ def test_a_docking_turn_is_checked_with_the_margin_the_manoeuvre_was_planned_wit
     assert guard(0.0, -0.5, "following", scan_points=leaf, precise=True, **ok)[2] == "following"
     touching = pts((-fp.rear + 0.02, fp.width / 2 + 0.04))
     assert guard(0.0, -0.5, "following", scan_points=touching, precise=True, **ok)[2] == "obstacle"
+
+
+def test_a_turn_at_speed_stops_before_the_corner_sweeps_into_a_wall_beside_the_strip() -> None:
+    """Campaign b7.m03 (and b2.m01, b6.m04): following at 0.55 m/s and turning, the chair
+    swung its front corner towards a wall that lay beside the straight stop strip; the
+    strip saw it only when the chair already faced it, and the chair stopped 0.9 cm from
+    it. Along the arc the chair is driving, the footprint over the stop zone's length must
+    not come within the side margin of a point, nor nearer to one already that near."""
+    wall = pts((0.95, 0.40))  # ahead-left of the front-left corner, outside the strip
+    ok = dict(now=10.0, pose_ok=True, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5)
+    assert guard(0.5, 0.5, "following", scan_points=wall, **ok)[2] == "obstacle"  # towards
+    assert guard(0.5, 0.0, "following", scan_points=wall, **ok)[2] == "following"  # straight
+    assert guard(0.5, -0.5, "following", scan_points=wall, **ok)[2] == "following"  # away
+    jamb = pts((0.2, 0.36), (0.6, -0.36))  # passing between jambs 3.5 cm a side: not nearer
+    assert guard(0.2, 0.0, "following", scan_points=jamb, precise=True, **ok)[2] == "following"
