@@ -43,13 +43,44 @@ def turn_closes_in(
     """True if turning on the spot by ``angle`` (radians, about the rear axle; the sign says
     which way) brings a point (N, 2, chair frame) within ``margin`` of the rectangle, or one
     already within it nearer still: beside a wall, a corner swings on into it."""
-    if len(xy) == 0 or angle == 0.0:
+    if angle == 0.0:
+        return False
+    poses = [(0.0, 0.0, phi) for phi in np.linspace(angle / 4, angle, 4)]
+    return moves_close_in(xy, front, rear, width, margin, poses)
+
+
+def arc_poses(length: float, curvature: float, steps: int = 4) -> list[tuple[float, float, float]]:
+    """Poses (x, y, heading, chair frame) along the arc of ``curvature`` (1/m, left > 0),
+    every ``length / steps`` metres of it (``length`` < 0: backwards)."""
+    out = []
+    for s in np.linspace(length / steps, length, steps):
+        phi = curvature * s
+        if abs(phi) < 1e-9:
+            out.append((float(s), 0.0, 0.0))
+        else:
+            out.append((math.sin(phi) / curvature, (1.0 - math.cos(phi)) / curvature, phi))
+    return out
+
+
+def moves_close_in(
+    xy: np.ndarray,
+    front: float,
+    rear: float,
+    width: float,
+    margin: float,
+    poses: list[tuple[float, float, float]],
+) -> bool:
+    """True if the rectangle at any of ``poses`` (chair frame) comes within ``margin`` of a
+    point (N, 2, chair frame), or nearer to one already within it: what a move sweeps into
+    (points it keeps its distance from, a jamb beside a straight pass, do not count)."""
+    if len(xy) == 0:
         return False
     gap = footprint_gap(xy, front, rear, width)
     floor = np.minimum(gap, margin) - 1e-3  # how near each point may come
-    for phi in np.linspace(angle / 4, angle, 4):
+    for px, py, phi in poses:
         c, s = math.cos(phi), math.sin(phi)
-        turned = np.column_stack((c * xy[:, 0] + s * xy[:, 1], -s * xy[:, 0] + c * xy[:, 1]))
-        if (footprint_gap(turned, front, rear, width) < floor).any():
+        dx, dy = xy[:, 0] - px, xy[:, 1] - py
+        moved = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+        if (footprint_gap(moved, front, rear, width) < floor).any():
             return True
     return False

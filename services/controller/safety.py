@@ -14,8 +14,10 @@ door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_belo
 the footprint turned as far as the chair turns in ``turn_check_s`` (at most
 ``turn_check_deg``) must not come within the side margin of a point, nor nearer to one
 already that near (a corner swinging on into a wall); a slow turn checked a full 15
-degrees ahead held the chair beside an open leaf it was creeping away from. Pure: points
-come in the robot frame.
+degrees ahead held the chair beside an open leaf it was creeping away from. Faster, the
+footprint along the arc it is driving, over the stop zone's length, must keep the same
+distance: turning at speed, a front corner swings into a wall beside the straight strip
+(campaign b7.m03 stopped 0.9 cm from one). Pure: points come in the robot frame.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
-from shared.geometry import turn_closes_in
+from shared.geometry import arc_poses, moves_close_in, turn_closes_in
 
 
 def stop_zone_hit(
@@ -71,6 +73,26 @@ def turn_sweep_hit(
     return turn_closes_in(pts, fp.front, fp.rear, fp.width, margin, angle)
 
 
+def arc_sweep_hit(
+    points: np.ndarray,
+    robot: RobotConfig,
+    v: float,
+    w: float,
+    length_m: float,
+    band_m: float,
+    margin_m: float,
+) -> bool:
+    """True if driving ``length_m`` along the arc of (``v``, ``w``) brings a point (N, 3,
+    robot frame) within ``margin_m`` of the footprint, or one already that near nearer
+    still: turning at speed, a front corner swings into a wall beside the straight strip."""
+    if points is None or len(points) == 0 or abs(v) < 1e-3:
+        return False
+    fp = robot.footprint
+    pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
+    poses = arc_poses(length_m if v > 0 else -length_m, w / v)
+    return moves_close_in(pts, fp.front, fp.rear, fp.width, margin_m, poses)
+
+
 def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
     """How far beyond the footprint the stop zone reaches at speed ``v``."""
     share = min(1.0, abs(v) / robot.max_speed)
@@ -100,9 +122,12 @@ def guard(
         return 0.0, 0.0, "stale_scan"
     margin = cfg.precise_side_margin_m if precise else robot.side_margin_m
     half = robot.footprint.width / 2 + margin
-    if stop_zone_hit(scan_points, robot, v, stop_zone_length(v, robot, cfg), band_m, half):
+    length = stop_zone_length(v, robot, cfg)
+    if stop_zone_hit(scan_points, robot, v, length, band_m, half):
         return 0.0, 0.0, "obstacle"
     turning = abs(v) < cfg.turn_check_below_mps
+    if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin):
+        return 0.0, 0.0, "obstacle"
     angle = min(np.radians(cfg.turn_check_deg), abs(w) * cfg.turn_check_s)
     if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, margin):
         return 0.0, 0.0, "obstacle"
