@@ -298,3 +298,29 @@ def test_a_long_sidestep_beside_a_wall_keeps_a_slant_that_fits() -> None:
         t += dt
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 3), round(th, 2))
     assert abs(y) <= DOCK.lateral_tolerance_m + 1e-3, (round(x, 3), round(y, 3), round(t, 1))
+
+
+def test_a_target_a_hand_away_is_not_faced_the_long_way_round() -> None:
+    """Campaign b0.m07: the path follower left the chair 13 cm short of the approach pose,
+    5 cm aside and 11 deg off, a wall (and an open leaf) ahead-left. Facing the target
+    was a short turn towards the wall, so the docker went 330 deg the long way round, and
+    again, until Phase 0's 20 s ran out. Within a hand's reach the final stage (turn to
+    the heading, drive along, sidestep) does it with small turns."""
+    fp = RobotConfig().footprint
+    wall = np.array([[x, 0.55] for x in np.arange(0.3, 1.5, 0.02)])
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, 0.0)
+    x, y, th, v, w = -0.128, -0.052, 0.197, 0.0, 0.0
+    dt, t, turned = 1.0 / RATE, 0.0, 0.0
+    while t < 30.0:
+        cmd = docker.step(x, y, th, obstacles=wall, period_s=dt)
+        if cmd.state == "arrived":
+            break
+        v += (cmd.v - v) * dt / LAG_S
+        w += (cmd.w - w) * dt / LAG_S
+        x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
+        turned += abs(w) * dt
+        t += dt
+    assert cmd.state == "arrived" and t < 12.0, (round(t, 1), round(x, 3), round(y, 3))
+    assert math.degrees(turned) < 90.0, math.degrees(turned)
+    assert abs(y) <= DOCK.lateral_tolerance_m + 1e-3
