@@ -6,16 +6,18 @@ the same manoeuvre is damped: speeds fall in proportion to the remaining error (
 floor so the chair does not creep), so it stops without overshoot on a chair with motor
 lag. Stages:
 
-* ``move`` (when starting further than ``near_m``, until within the tolerance): turn
-  towards the target, or away from it to back up to it when it lies within
-  ``reverse_reach_m`` and backing up leaves the chair nearer the goal heading (a target
-  behind a chair facing the door; a pose across a corridor facing the other way), then
-  drive while steering. Within ``near_m`` it no longer turns on the spot to face the
-  target: with the target off to a side it hands over to the final stage.
+* ``move`` (when starting further than ``near_m`` from a manoeuvre's pose, or
+  ``FACE_REACH_M`` from the goal itself, until within the tolerance): turn towards the
+  target, or away from it to back up to it when it lies within ``reverse_reach_m`` and
+  backing up leaves the chair nearer the goal heading (a target behind a chair facing the
+  door; a pose across a corridor facing the other way), then drive while steering. Nearer
+  than that it no longer turns on the spot to face the target: with the target off to a
+  side it hands over to the final stage.
 * ``final``: turn on the spot to the goal heading, then drive out the error along it.
-  What is left across the heading is under the tolerance (or ``near_m``, when the
-  manoeuvre started that close): turning away to remove it would cost two more turns
-  for a few centimetres that the pass's pure pursuit takes out anyway.
+* ``sidestep``: what is left across the goal heading, over ``lateral_tolerance_m``, is
+  taken out by docking first at a pose on the goal's line behind the chair (backing up
+  slantwise onto it) and then along the line: a pass through a door starts on its centre
+  line, and its front enters the doorway within 3 cm of it.
 
 When the chair stands still for ``STUCK_S`` while commanded to move (the safety checks
 hold it: in the room between two doors in series, 2 x 2 m, there is no room to turn at
@@ -66,6 +68,7 @@ SIDESTEP_RAD = math.radians(20)  # a sidestep backs up at most this far off the 
 SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a real move)
 SIDESTEP_REACH = 0.9  # and at most this share of reverse_reach_m (it must back up to it)
 SIDESTEPS = 2  # at most this many per goal
+FACE_REACH_M = 0.25  # nearer the goal itself the final stage and a sidestep beat facing it
 
 
 @dataclass
@@ -232,10 +235,11 @@ class Docker:
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         if not pose_fresh:
             return Command(0.0, 0.0, "stale", progress, dist, 0.0)
-        if self.stage == "final" and dist > LEAVE_FACTOR * lim.near_m and not self._straight:
+        near = self._near()
+        if self.stage == "final" and dist > LEAVE_FACTOR * near and not self._straight:
             self.stage = "move"  # pushed away: start over
         if self.stage == "start":  # close already: no need to drive towards it first
-            self.stage = "final" if dist <= lim.near_m else "move"
+            self.stage = "final" if dist <= near else "move"
         if self.stage == "move":
             if dist > self._tol:
                 moved = self._move(ex, ey, dist, theta, obstacles)
@@ -257,6 +261,17 @@ class Docker:
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
         return Command(v, w, "following", progress, dist, 0.0)
+
+    def _near(self) -> float:
+        """Within this of the goal the move stage hands over to the final stage: ``near_m``
+        for a manoeuvre's pose, ``FACE_REACH_M`` for the goal itself, whose error across
+        the heading a sidestep takes out (facing a target a hand away costs two turns, the
+        first of them maybe the long way round past a wall)."""
+        return (
+            self.limits.near_m
+            if self.goal != self._target
+            else max(self.limits.near_m, FACE_REACH_M)
+        )
 
     def _sidestep(self, x: float, y: float) -> bool:
         """At the goal with more than ``lateral_tolerance_m`` across its heading: dock first
@@ -307,7 +322,7 @@ class Docker:
         bearing = wrap_angle(math.atan2(ey, ex) + (math.pi if backwards else 0.0) - theta)
         w = max(-lim.max_turn, min(lim.max_turn, lim.turn_gain * bearing))
         if abs(bearing) > ALIGN_RAD:
-            if dist <= lim.near_m:
+            if dist <= self._near():
                 return "near"
             return 0.0, self._turn(math.copysign(max(MIN_TURN, abs(w)), w), abs(bearing))
         self._turn_sign = 0.0
