@@ -59,6 +59,7 @@ class ScriptedFleet:
         self.avoided: set[str] = set()
         self.turn_room = True
         self.marked = 0
+        self.turning = 0.0  # the turn rate odometry reports (rad/s): a chair at work
         self.forgotten = 0
 
     def now(self) -> float:
@@ -94,7 +95,7 @@ class ScriptedFleet:
         return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3))
 
     def odometry(self) -> Odometry:
-        return Odometry(self.t, Pose2D(self.x, self.y, self.th), 0.0, 0.0)
+        return Odometry(self.t, Pose2D(self.x, self.y, self.th), 0.0, self.turning)
 
     def door_mode(self, door_id: str) -> int | None:
         return self.doors.get(door_id)

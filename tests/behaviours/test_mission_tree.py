@@ -556,6 +556,32 @@ def test_a_phase_limit_counts_the_time_under_a_safety_hold() -> None:
     assert bb.failure == "Correct d1: timed out after 20 s"
 
 
+@pytest.mark.parametrize("off_deg, limit_s", [(0.0, 20.0), (120.0, 45.0)])
+def test_phase_0_facing_far_from_the_approach_heading_gets_a_manoeuvre_s_time(
+    off_deg: float, limit_s: float
+) -> None:
+    # campaign b2.m01: the chair started Phase 0 in a small room facing 117 deg away from
+    # the approach heading; the docker's manoeuvre (turns and short drives) was all but
+    # done when the 20 s limit ended the mission. Starting it that far round, the limit
+    # adds navigator.manoeuvre_allowance_s.
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(
+        ROUTE, fleet, correction_timeout_s=20.0, manoeuvre_allowance_s=25.0, max_recoveries=0
+    )
+    tree.tick()
+    fleet.arrive()
+    fleet.th = np.radians(off_deg)  # the approach heading is 0
+    fleet.turning = 0.3  # at work all the while: never "not converging"
+    tree.tick()
+    start = fleet.t
+    while tree.root.status == Status.RUNNING and fleet.t < start + 60.0:
+        fleet.t += 0.5
+        tree.tick()
+    assert bb.failure == f"Correct d1: timed out after {limit_s:g} s", bb.failure
+    assert start + limit_s <= fleet.t <= start + limit_s + 1.0
+
+
 def test_a_door_without_a_controller_is_verified_by_lidar_alone() -> None:
     # issue 13 item 5: no building state for this door; three open scans let the chair pass
     blackboard()
