@@ -166,6 +166,9 @@ class EntryParams:
         return (self.front_m - self.rear_m) / 2
 
 
+MANOEUVRE_TURN = math.radians(90)  # Phase 0 starting further round gets a manoeuvre's time
+
+
 def _pass_timeout(distance_m: float, speed: float) -> float:
     return max(10.0, 4 * distance_m / speed)
 
@@ -191,8 +194,14 @@ def _correct(
     )
     limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
     if reach_m > 0:
-        limit += nav.manoeuvre_allowance_s
-    return Timeout(name, dock, limit, clock, record)
+        return Timeout(name, dock, limit + nav.manoeuvre_allowance_s, clock, record)
+
+    def round_about() -> float:
+        """Starting more than MANOEUVRE_TURN off the approach heading, a small room may
+        need a manoeuvre (turns and short drives) to turn round: its allowance."""
+        return nav.manoeuvre_allowance_s if dock.heading_off_rad() > MANOEUVRE_TURN else 0.0
+
+    return Timeout(name, dock, limit, clock, record, extra=round_about)
 
 
 def _door_steps(

@@ -167,6 +167,14 @@ class DockAt(FleetBehaviour):
         x, y, h = self._goal
         self.fleet.send_path(dock_path(self._path_id, self.floor, x, y, h, self.speed))
 
+    def heading_off_rad(self) -> float:
+        """How far the pose estimate faces from the goal heading now (0: turning to face a
+        point, or no estimate)."""
+        est = self.fleet.pose() if self.fleet is not None else None
+        if self.heading is None or est is None:
+            return 0.0
+        return angle_between(self.heading, est.pose.theta)
+
     def errors(self) -> tuple[float, float] | None:
         """(position error m, heading error rad) of the pose estimate, None without one."""
         est = self.fleet.pose()

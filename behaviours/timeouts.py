@@ -17,6 +17,8 @@ class Timeout(py_trees.decorators.Decorator):
 
     Returns the child's status otherwise. When it fires, ``feedback_message`` says "timed
     out after N s" and ``on_timeout(reason)`` is called, so the reason can reach a report.
+    ``extra()``, asked each time it starts, adds to ``duration`` what the situation then
+    calls for (a manoeuvre ahead).
     """
 
     def __init__(
@@ -26,6 +28,7 @@ class Timeout(py_trees.decorators.Decorator):
         duration: float,
         clock: Callable[[], float],
         on_timeout: Callable[[str], None] | None = None,
+        extra: Callable[[], float] | None = None,
     ) -> None:
         if duration <= 0:
             raise ValueError(f"{name}: duration must be > 0, got {duration}")
@@ -33,19 +36,22 @@ class Timeout(py_trees.decorators.Decorator):
         self.duration = duration
         self.clock = clock
         self.on_timeout = on_timeout
+        self.extra = extra
         self.started = 0.0
+        self.limit = duration
 
     def initialise(self) -> None:
         self.started = self.clock()
+        self.limit = self.duration + (max(0.0, self.extra()) if self.extra else 0.0)
         self.feedback_message = ""
 
     def expired(self, now: float) -> bool:
-        """True once ``duration`` has passed since it started (whether ticked or not)."""
-        return now - self.started > self.duration
+        """True once its limit has passed since it started (whether ticked or not)."""
+        return now - self.started > self.limit
 
     def update(self) -> Status:
         if self.decorated.status == Status.RUNNING and self.expired(self.clock()):
-            self.feedback_message = f"timed out after {self.duration:g} s"
+            self.feedback_message = f"timed out after {self.limit:g} s"
             self.decorated.stop(Status.INVALID)
             if self.on_timeout is not None:
                 self.on_timeout(f"{self.decorated.name}: {self.feedback_message}")
