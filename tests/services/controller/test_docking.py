@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -16,24 +17,47 @@ DOCK = DockLimits.from_config(ControllerConfig(), RobotConfig())  # the fleet's 
 LAG_S = 0.25  # first-order motor lag, as the simulator's chair
 
 
-def run(docker: Docker, x: float, y: float, th: float, limit_s: float = 20.0):
-    """Drive the model until the docker reports arrival; (x, y, th, seconds, max |v|)."""
-    v = w = 0.0
+@dataclass
+class Drive:
+    """Where the model ended and how it got there."""
+
+    x: float
+    y: float
+    th: float
+    t: float  # seconds
+    top: float  # the largest |v|
+    turned: float  # radians turned in all
+    arrived: bool
+
+
+def drive(
+    docker: Docker,
+    x: float,
+    y: float,
+    th: float,
+    limit_s: float = 20.0,
+    obstacles: np.ndarray | None = None,
+) -> Drive:
+    """Drive the model (first-order motor lag) until the docker reports arrival or the
+    limit; ``obstacles`` (N, 2) are the points the docker is given every cycle."""
+    v = w = top = turned = t = 0.0
     dt = 1.0 / RATE
-    top = 0.0
-    t = 0.0
     while t < limit_s:
-        cmd = docker.step(x, y, th)
+        cmd = docker.step(x, y, th, obstacles=obstacles, period_s=dt)
         if cmd.state == "arrived":
-            return x, y, th, t, top
+            return Drive(x, y, th, t, top, turned, True)
         v += (cmd.v - v) * dt / LAG_S
         w += (cmd.w - w) * dt / LAG_S
-        top = max(top, abs(v))
-        x += v * math.cos(th) * dt
-        y += v * math.sin(th) * dt
-        th += w * dt
+        top, turned = max(top, abs(v)), turned + abs(w) * dt
+        x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
         t += dt
-    return x, y, th, t, top
+    return Drive(x, y, th, t, top, turned, False)
+
+
+def run(docker: Docker, x: float, y: float, th: float, limit_s: float = 20.0):
+    """Drive the model without points; (x, y, th, seconds, max |v|)."""
+    d = drive(docker, x, y, th, limit_s)
+    return d.x, d.y, d.th, d.t, d.top
 
 
 # the seed's Phase 0 tests: target 2.5 m in front of the door (goal at the origin facing +x,
@@ -286,17 +310,9 @@ def test_a_long_sidestep_beside_a_wall_keeps_a_slant_that_fits() -> None:
     pts = np.vstack((wall, front))
     docker = Docker(DOCK, fp, 0.05)
     docker.set_goal(0.0, 0.0, 0.0)
-    x, y, th, v, w = 0.0, 0.17, 0.0, 0.0, 0.0
-    dt, t = 1.0 / RATE, 0.0
-    while t < 30.0:
-        cmd = docker.step(x, y, th, obstacles=pts, period_s=dt)
-        if cmd.state == "arrived":
-            break
-        v += (cmd.v - v) * dt / LAG_S
-        w += (cmd.w - w) * dt / LAG_S
-        x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
-        t += dt
-    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 3), round(th, 2))
+    d = drive(docker, 0.0, 0.17, 0.0, 30.0, pts)
+    x, y, th, t = d.x, d.y, d.th, d.t
+    assert d.arrived, (round(t, 1), round(x, 2), round(y, 3), round(th, 2))
     assert abs(y) <= DOCK.lateral_tolerance_m + 1e-3, (round(x, 3), round(y, 3), round(t, 1))
 
 
@@ -310,17 +326,7 @@ def test_a_target_a_hand_away_is_not_faced_the_long_way_round() -> None:
     wall = np.array([[x, 0.55] for x in np.arange(0.3, 1.5, 0.02)])
     docker = Docker(DOCK, fp, 0.05)
     docker.set_goal(0.0, 0.0, 0.0)
-    x, y, th, v, w = -0.128, -0.052, 0.197, 0.0, 0.0
-    dt, t, turned = 1.0 / RATE, 0.0, 0.0
-    while t < 30.0:
-        cmd = docker.step(x, y, th, obstacles=wall, period_s=dt)
-        if cmd.state == "arrived":
-            break
-        v += (cmd.v - v) * dt / LAG_S
-        w += (cmd.w - w) * dt / LAG_S
-        x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
-        turned += abs(w) * dt
-        t += dt
-    assert cmd.state == "arrived" and t < 12.0, (round(t, 1), round(x, 3), round(y, 3))
-    assert math.degrees(turned) < 90.0, math.degrees(turned)
-    assert abs(y) <= DOCK.lateral_tolerance_m + 1e-3
+    d = drive(docker, -0.128, -0.052, 0.197, 30.0, wall)
+    assert d.arrived and d.t < 12.0, (round(d.t, 1), round(d.x, 3), round(d.y, 3))
+    assert math.degrees(d.turned) < 90.0, math.degrees(d.turned)
+    assert abs(d.y) <= DOCK.lateral_tolerance_m + 1e-3
