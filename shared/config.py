@@ -285,6 +285,10 @@ class ControllerConfig:
     final_approach_m: float = field(default=0.5, metadata=check(_non_negative))
     lookahead_m: float = field(default=0.6, metadata=check(_positive))
     heading_gain: float = field(default=2.0, metadata=check(_positive))
+    # on a precise pass (door, lift car) the turn rate is this gain times the angle to the
+    # lookahead point, not pure pursuit's 2 v sin(a) / d (0.67 per rad at 0.2 m/s): a
+    # caster's yaw kick at set-off is taken out before the nose reaches the jambs
+    pass_heading_gain: float = field(default=3.0, metadata=check(_positive))
     goal_tolerance_m: float = field(default=0.15, metadata=check(_positive))
     start_align_deg: float = field(default=5.0, metadata=check(_positive))
     start_align_m: float = field(default=0.3, metadata=check(_non_negative))

@@ -6,6 +6,10 @@ part of every path. It projects the pose onto the path (progress never goes
 backwards), faces the path before setting off, steers towards a point ``lookahead_m``
 further on, turns on the spot when that point is far off the heading, takes the speed
 from the path's ``v_ref`` and stops within ``goal_tolerance_m`` of the last waypoint.
+On a precise path (a pass through a door, into or out of a lift car) the turn rate is
+``pass_heading_gain`` times the angle to that point: pure pursuit's curvature law is
+soft at door speed (2 v / d per radian), so a yaw kick as the casters swing round at
+set-off would still turn the nose 2-3 deg off the line as it enters the doorway.
 A stale pose gives a zero command.
 """
 
@@ -30,6 +34,7 @@ class PathFollower:
         self.robot = robot
         self.path_id = ""
         self.reverse = False
+        self.precise = False
         self._pts = np.zeros((0, 2))
         self._v = np.zeros(0)
         self._s = np.zeros(0)
@@ -37,12 +42,19 @@ class PathFollower:
         self._arrived = False
 
     def set_path(
-        self, path_id: str, waypoints: np.ndarray, v_ref: np.ndarray, reverse: bool = False
+        self,
+        path_id: str,
+        waypoints: np.ndarray,
+        v_ref: np.ndarray,
+        reverse: bool = False,
+        precise: bool = False,
     ) -> None:
         """Start following ``waypoints`` (N, 2) with speeds ``v_ref`` (N,), backwards if
-        ``reverse`` (out of a lift car, where the chair cannot turn)."""
+        ``reverse`` (out of a lift car, where the chair cannot turn), holding the line
+        stiffly if ``precise`` (a pass)."""
         self.path_id = path_id
         self.reverse = reverse
+        self.precise = precise
         self._pts = np.asarray(waypoints, dtype=float)
         self._v = np.asarray(v_ref, dtype=float)
         legs = np.linalg.norm(np.diff(self._pts, axis=0), axis=1) if len(self._pts) else []
@@ -86,8 +98,11 @@ class PathFollower:
         v_ref = float(np.interp(self._progress_s, self._s, self._v))
         v_ref = max(v_ref, min(0.1, v_max)) if to_goal > self.cfg.goal_tolerance_m else 0.0
         v = min(v_ref, v_max) * max(0.0, math.cos(alpha))
-        dist = max(float(math.hypot(target[0] - x, target[1] - y)), 1e-6)
-        w = 2.0 * v * math.sin(alpha) / dist  # pure-pursuit curvature times speed
+        if self.precise:
+            w = self.cfg.pass_heading_gain * alpha
+        else:
+            dist = max(float(math.hypot(target[0] - x, target[1] - y)), 1e-6)
+            w = 2.0 * v * math.sin(alpha) / dist  # pure-pursuit curvature times speed
         w = max(-w_max, min(w_max, w))
         return Command(-v if self.reverse else v, w, "following", progress, to_goal, cross)
 

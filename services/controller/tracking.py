@@ -124,7 +124,7 @@ class Tracker:
             gx, gy = float(waypoints[-1][0]), float(waypoints[-1][1])
             self.docker.set_goal(gx, gy, dock_heading, cap)
             waypoints, v_ref = np.zeros((0, 2)), np.zeros(0)
-        self.pursuit.set_path(path_id, waypoints, v_ref, reverse)
+        self.pursuit.set_path(path_id, waypoints, v_ref, reverse, precise)
         self.use_mpc = self.mpc is not None and not reverse and not precise and len(waypoints) > 0
         if self.mpc is not None:
             self.mpc.set_path(
