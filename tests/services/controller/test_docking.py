@@ -330,3 +330,30 @@ def test_a_target_a_hand_away_is_not_faced_the_long_way_round() -> None:
     assert d.arrived and d.t < 12.0, (round(d.t, 1), round(d.x, 3), round(d.y, 3))
     assert math.degrees(d.turned) < 90.0, math.degrees(d.turned)
     assert abs(d.y) <= DOCK.lateral_tolerance_m + 1e-3
+
+
+def test_arriving_sideways_in_a_narrow_corridor_it_drives_onto_the_line_before_turning() -> None:
+    """Campaign b0.m00 at 045f845: a door in the side of a corridor whose far wall is 0.73 m
+    behind the approach point; the leg left the chair 12.6 cm short of the door's line,
+    facing along the corridor 67 deg off the door. The final stage turned to the heading on the spot, and a sidestep had no room behind
+    (the corridor's far wall): it arrived 12.6 cm across, and the pass swung the nose
+    within 9 cm of a jamb of the 0.90 m door (limit 9.5 cm). The error across the goal
+    heading lies along the heading the chair has: drive it out first, then turn."""
+    fp = RobotConfig().footprint
+    grid = [(x, y) for x in np.arange(-1.5, 1.5, 0.05) for y in np.arange(-1.5, 1.5, 0.05)]
+    pts = np.array(
+        [
+            (x, y)
+            for x, y in grid
+            if (x <= -0.73 and y <= 0.12)  # the corridor's far wall, behind on the right
+            or (0.52 <= x <= 0.92 and abs(y) >= 0.87)  # a recess before the door's wall
+            or (0.97 <= x <= 1.12 and abs(y) >= 0.47)  # the door's wall (b0's map, cells)
+        ]
+        + [(1.045, y) for y in np.arange(-0.45, 0.46, 0.02)]  # the door, closed
+    )
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, 0.0)
+    d = drive(docker, -0.014, 0.126, math.radians(-67), 30.0, pts)
+    assert d.arrived, (round(d.t, 1), round(d.x, 3), round(d.y, 3), round(d.th, 2))
+    assert abs(d.y) <= DOCK.lateral_tolerance_m + 1e-3, (round(d.x, 3), round(d.y, 3))
+    assert d.t < 12.0
