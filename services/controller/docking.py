@@ -14,6 +14,10 @@ lag. Stages:
   than that it no longer turns on the spot to face the target: with the target off to a
   side it hands over to the final stage.
 * ``final``: turn on the spot to the goal heading, then drive out the error along it.
+  Turned more than ``SHIFT_RAD`` off the goal heading (arriving sideways along a
+  corridor, the door in its side), it first drives along the heading it has until the
+  error across the goal heading is gone: that error lies mostly along its way, and there
+  may be no room behind for a sidestep.
 * ``sidestep``: what is left across the goal heading, over ``lateral_tolerance_m``, is
   taken out by docking first at a pose on the goal's line behind the chair (backing up
   slantwise onto it) and then along the line: a pass through a door starts on its centre
@@ -69,6 +73,7 @@ SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a rea
 SIDESTEP_REACH = 0.9  # and at most this share of reverse_reach_m (it must back up to it)
 SIDESTEPS = 2  # at most this many per goal
 FACE_REACH_M = 0.25  # nearer the goal itself the final stage and a sidestep beat facing it
+SHIFT_RAD = math.radians(45)  # turned this far off the goal heading: drive out what is across
 
 
 @dataclass
@@ -338,6 +343,9 @@ class Docker:
         turn = lim.turn_gain * abs(heading_err)
         w = math.copysign(max(MIN_TURN, min(lim.max_turn, turn)), heading_err)
         if abs(heading_err) > max(self._tol_heading, ALIGN_RAD / 2):
+            shift = self._shift(ex, ey, heading_err, goal_heading)
+            if shift:
+                return math.copysign(self._speed(abs(shift)), shift), 0.0, False
             return 0.0, self._turn(w, abs(heading_err)), False
         self._turn_sign = 0.0
         along = ex * math.cos(goal_heading) + ey * math.sin(goal_heading)
@@ -346,6 +354,24 @@ class Docker:
         if abs(heading_err) > self._tol_heading:
             return 0.0, w, False
         return 0.0, 0.0, True
+
+    def _shift(self, ex: float, ey: float, heading_err: float, goal_heading: float) -> float:
+        """Metres to drive along the chair's heading (negative: backwards) before the
+        final turn, so the goal's error across its heading is gone: 0 unless the goal
+        itself is more than ``lateral_tolerance_m`` across, the chair is turned more than
+        ``SHIFT_RAD`` off (so the drive is short and mostly across), it is within
+        ``FACE_REACH_M`` and the footprint where it ends holds no point."""
+        if self.goal != self._target or abs(math.sin(heading_err)) < math.sin(SHIFT_RAD):
+            return 0.0
+        across = -ex * math.sin(goal_heading) + ey * math.cos(goal_heading)
+        if abs(across) <= self.limits.lateral_tolerance_m:
+            return 0.0
+        dist = across / math.sin(-heading_err)  # each metre moves sin(theta - goal) across
+        x, y, theta = self._pose
+        end = (x + dist * math.cos(theta), y + dist * math.sin(theta), theta)
+        if abs(dist) > FACE_REACH_M or not self._fits_at(end, theta, self._obstacles):
+            return 0.0
+        return dist
 
     def _turn(self, w: float, left_rad: float = SWEEP_RAD) -> float:
         """``w`` for a turn on the spot (``left_rad`` of it to go), or the other way round

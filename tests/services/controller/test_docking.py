@@ -335,10 +335,11 @@ def test_a_target_a_hand_away_is_not_faced_the_long_way_round() -> None:
 def test_arriving_sideways_in_a_narrow_corridor_it_drives_onto_the_line_before_turning() -> None:
     """Campaign b0.m00 at 045f845: a door in the side of a corridor whose far wall is 0.73 m
     behind the approach point; the leg left the chair 12.6 cm short of the door's line,
-    facing along the corridor 67 deg off the door. The final stage turned to the heading on the spot, and a sidestep had no room behind
-    (the corridor's far wall): it arrived 12.6 cm across, and the pass swung the nose
-    within 9 cm of a jamb of the 0.90 m door (limit 9.5 cm). The error across the goal
-    heading lies along the heading the chair has: drive it out first, then turn."""
+    facing along the corridor 67 deg off the door. The final stage turned to the heading
+    on the spot, and a sidestep had no room behind (the corridor's far wall): it arrived
+    12.6 cm across, and the pass swung the nose within 9 cm of a jamb of the 0.90 m door
+    (limit 9.5 cm). The error across the goal heading lies along the heading the chair
+    has: drive it out first, then turn."""
     fp = RobotConfig().footprint
     grid = [(x, y) for x in np.arange(-1.5, 1.5, 0.05) for y in np.arange(-1.5, 1.5, 0.05)]
     pts = np.array(
