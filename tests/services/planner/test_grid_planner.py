@@ -76,3 +76,18 @@ def test_line_of_sight() -> None:
     lethal[5, 2:8] = True
     assert not line_is_free(lethal, np.array([0, 5]), np.array([9, 5]))
     assert line_is_free(lethal, np.array([0, 0]), np.array([9, 0]))
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+def test_a_start_in_a_closed_doorway_plans_out_on_its_own_side(planner, side: int) -> None:
+    """Campaign b4.m05: a recovery left the chair's reference point 4 cm from a door's
+    plane, in the doorway; the re-plan closed that door (the path ran back through it,
+    so its first leg went to the approach pose on the near side) and its 0.15 m band held
+    the start cell in: "goal cell ... is unreachable from start cell", and the mission
+    ended. The band may not reach past the start; the door stays shut to the path."""
+    door = ((6.2, 2.2), (6.2, 3.2))
+    start = (6.2 + side * 0.04, 2.7)
+    goal = (6.2 + side * 1.0, 2.7)
+    plan = planner.planner.plan(start, goal, "1", [door])
+    assert np.allclose(plan.waypoints[-1], goal)
+    assert (np.sign(plan.waypoints[:, 0] - 6.2) == side).all()  # never across the plane
