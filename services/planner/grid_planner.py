@@ -20,6 +20,8 @@ from services.planner.inflation import inflate
 from shared.config import PlannerConfig, RobotConfig
 from shared.site import GridMap, Site, SiteError
 
+CLOSED_BAND_M = 0.15  # a closed door blocks the cells this far either side of its segment
+
 
 @dataclass
 class Plan:
@@ -101,7 +103,9 @@ class Planner:
     ) -> Plan:
         """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor).
 
-        ``closed`` lists segments (door openings) the path must not cross; ``points`` are
+        ``closed`` lists segments (door openings) the path must not cross (a band
+        ``CLOSED_BAND_M`` each side, thinner where the start or the goal stands in it: a
+        recovery can leave the chair in a doorway); ``points`` are
         obstacles the map lacks (what held the chair), inflated like the map's. With
         ``arrive_heading``, the path ends with a straight run-in of up to ``run_in_m``
         along that heading (shorter where the space behind the goal is), so the chair
@@ -115,8 +119,11 @@ class Planner:
         lethal = fg.lethal
         if closed or len(points):
             lethal = lethal.copy()
+            ends = np.array([start, goal], float)
             for p1, p2 in closed:
-                block_segment(lethal, fg.grid, p1, p2)
+                near = float(segment_distances(ends, p1, p2).min())
+                band = min(CLOSED_BAND_M, max(0.0, near - 2 * fg.grid.resolution))
+                block_segment(lethal, fg.grid, p1, p2, band)
             for p in points:
                 block_segment(lethal, fg.grid, p, p, self.radius)
             lethal[s] = lethal[g] = False
@@ -201,12 +208,22 @@ def _xy(p: tuple[float, float]) -> str:
     return f"({p[0]:.2f}, {p[1]:.2f})"
 
 
+def segment_distances(
+    pts: np.ndarray, p1: tuple[float, float], p2: tuple[float, float]
+) -> np.ndarray:
+    """Distance of each point (N, 2) to the segment p1-p2."""
+    a, b = np.asarray(p1, float), np.asarray(p2, float)
+    d = b - a
+    t = np.clip(((pts - a) @ d) / max(float(d @ d), 1e-12), 0.0, 1.0)
+    return np.linalg.norm(pts - (a + t[:, None] * d), axis=1)
+
+
 def block_segment(
     lethal: np.ndarray,
     grid: GridMap,
     p1: tuple[float, float],
     p2: tuple[float, float],
-    thickness_m: float = 0.15,
+    thickness_m: float = CLOSED_BAND_M,
 ) -> None:
     """Mark the cells within ``thickness_m`` of segment p1-p2 lethal (a closed door)."""
     a, b = np.asarray(p1, float), np.asarray(p2, float)
