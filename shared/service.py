@@ -15,6 +15,11 @@ Every service publishes its counters (:class:`~shared.messages.Diagnostics`: mes
 and bad messages per key, restarts) on ``wheelnav/<robot>/diagnostics/<service>`` every
 ``DIAGNOSTICS_EVERY_S`` of wall time and once more when it stops; the launcher tells it
 how often it was restarted in the environment variable ``WHEELNAV_RESTARTS``.
+
+A service the launcher started stops by itself when the launcher is gone (killed with
+SIGKILL, it cannot stop its children): the launcher puts its pid in
+``WHEELNAV_PARENT_PID`` and :func:`watch_parent` stops the service once that process is
+no longer its parent. Started by hand or by docker compose, nothing is watched.
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ EXIT_CONFIG = 2
 EXIT_STEP_FAILED = 3  # a wall-clock step raised: the launcher restarts the service
 DIAGNOSTICS_EVERY_S = 1.0  # wall time between two Diagnostics of a service
 RESTARTS_ENV = "WHEELNAV_RESTARTS"  # set by the launcher: restarts before this process
+PARENT_ENV = "WHEELNAV_PARENT_PID"  # set by the launcher: stop when it is no longer the parent
+PARENT_CHECK_S = 0.5  # wall time between two looks at the parent
 
 
 def restarts_from_env(environ: dict[str, str] | None = None) -> int:
@@ -48,6 +55,32 @@ def restarts_from_env(environ: dict[str, str] | None = None) -> int:
         return max(0, int(text))
     except ValueError:
         return 0
+
+
+def launcher_env(environ: dict[str, str] | None = None) -> dict[str, str]:
+    """The environment for a child of this process that must stop when this one is gone."""
+    return dict(os.environ if environ is None else environ, **{PARENT_ENV: str(os.getpid())})
+
+
+def watch_parent(
+    on_gone: Callable[[int], None], environ: dict[str, str] | None = None
+) -> threading.Thread | None:
+    """Call ``on_gone(pid)`` once, from a daemon thread, when the launcher whose pid is in
+    ``PARENT_ENV`` is no longer this process's parent (it died; the orphan was handed to
+    init). None, and nothing watched, when the variable is unset or not a pid."""
+    try:
+        pid = int((os.environ if environ is None else environ).get(PARENT_ENV, ""))
+    except ValueError:
+        return None
+
+    def watch() -> None:
+        while os.getppid() == pid:
+            time.sleep(PARENT_CHECK_S)
+        on_gone(pid)
+
+    thread = threading.Thread(target=watch, name="parent-watch", daemon=True)
+    thread.start()
+    return thread
 
 
 def add_override_argument(parser: argparse.ArgumentParser) -> None:
@@ -140,6 +173,7 @@ class Service:
     def __enter__(self) -> Service:
         for sig in (signal.SIGTERM, signal.SIGINT):
             signal.signal(sig, lambda *_: self.stop_event.set())
+        watch_parent(self._launcher_gone)
         try:
             session = open_session(self.cfg.transport)
         except RuntimeError as exc:
@@ -152,6 +186,10 @@ class Service:
         )
         self._diag_thread.start()
         return self
+
+    def _launcher_gone(self, pid: int) -> None:
+        self.log.warning("the launcher (pid %d) is gone: stopping", pid)
+        self.stop_event.set()
 
     def ready(self) -> None:
         """Announce the service (liveliness token) once its endpoints are declared.

@@ -7,7 +7,8 @@ for it. ``wheelnav mission`` therefore routes through this process and joins the
 a client like every service (measured: the demo in lockstep ran 1.4x faster).
 
 Run as ``python -m wheelnav.launcher.router ENDPOINT``; it prints one line once it listens
-and stops on SIGTERM or SIGINT. :class:`RouterProcess` starts and stops it.
+and stops on SIGTERM or SIGINT, or when the process that started it is gone (see
+:func:`shared.service.watch_parent`). :class:`RouterProcess` starts and stops it.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import sys
 import threading
 
 from shared.config import TransportConfig
+from shared.service import launcher_env, watch_parent
 from shared.transport import open_session
 
 READY = "router listening on"
@@ -39,6 +41,7 @@ class RouterProcess:
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,
+            env=launcher_env(),
         )
         lines: list[str] = []
         ready = threading.Event()
@@ -80,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
+    watch_parent(lambda _pid: stop.set())
     try:
         session = open_session(TransportConfig(mode="router", connect=[], listen=[args.endpoint]))
     except RuntimeError as exc:

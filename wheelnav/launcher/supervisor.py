@@ -7,7 +7,6 @@ fix its input); Ctrl-C or SIGTERM stops everything, children first, then the rou
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
@@ -17,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import TextIO
 
 from shared.config import LauncherConfig, TransportConfig
-from shared.service import EXIT_CONFIG, RESTARTS_ENV
+from shared.service import EXIT_CONFIG, RESTARTS_ENV, launcher_env
 from shared.topics import Keys
 from shared.transport import Bus, open_session
 from wheelnav.launcher.backoff import Backoff, prefix
@@ -132,7 +131,7 @@ class Supervisor:
 
     def _spawn(self, child: _Child) -> None:
         # the service publishes how often it was restarted (its Diagnostics)
-        env = dict(os.environ, PYTHONUNBUFFERED="1", **{RESTARTS_ENV: str(child.restarts)})
+        env = dict(launcher_env(), PYTHONUNBUFFERED="1", **{RESTARTS_ENV: str(child.restarts)})
         child.proc = subprocess.Popen(
             self._command(child.spec),
             stdout=subprocess.PIPE,
