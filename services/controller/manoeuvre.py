@@ -163,13 +163,19 @@ def plan_manoeuvre(
     reached from the one before by one turn on the spot or one straight drive, the last
     at the goal heading within one cell of its position (a docking controller's final
     stage takes out the rest). Where the goal itself does not fit (an approach pose a few
-    centimetres inside the margin), any pose within ``costs.goal_slack_m`` and one heading
-    step of it ends the search (a docking tolerance). A start that does not fit (the
-    safety checks hold the chair there) is left by moves that do. None if no way is found
-    within ``costs.max_expansions``."""
+    centimetres inside the margin), the search goes to the nearest pose on the goal's line
+    (its heading through it) within ``costs.goal_slack_m`` that fits, a little short of a
+    door or beyond it, so docking ends on the door's centre line; where none does, any
+    pose within ``costs.goal_slack_m`` and one heading step of it ends the search. A start
+    that does not fit (the safety checks hold the chair there) is left by moves that do.
+    None if no way is found within ``costs.max_expansions``."""
     costs = costs or ManoeuvreCosts()
     k0, kg = heading_step(start[2]), heading_step(goal[2])
     fits = room.fits(goal[0], goal[1], kg)
+    if not fits:  # a pose on the goal's line instead: what is left is driven along it
+        on_line = _on_line(room, goal, kg, costs.goal_slack_m)
+        if on_line is not None:
+            goal, fits = on_line, True
     reach = room.res if fits else costs.goal_slack_m  # how near the goal ends the search
     steps_off = 0 if fits else 1  # and how many heading steps off it
     direct = simple_manoeuvre(room, start, goal)
@@ -225,6 +231,20 @@ def plan_manoeuvre(
             if ng < best.get(nkey, math.inf):
                 best[nkey], parent[nkey], node_of[nkey] = ng, key, (nx, ny, nk, nmode)
                 heapq.heappush(queue, (ng + heuristic(nx, ny), ng, nkey))
+    return None
+
+
+def _on_line(
+    room: Room, goal: tuple[float, float, float], kg: int, slack_m: float
+) -> tuple[float, float, float] | None:
+    """The pose nearest ``goal`` along its heading, within ``slack_m``, that fits (short
+    of it first on a tie), or None."""
+    c, s = math.cos(goal[2]), math.sin(goal[2])
+    for i in range(1, int(slack_m / room.res) + 1):
+        for d in (-i * room.res, i * room.res):
+            x, y = goal[0] + d * c, goal[1] + d * s
+            if room.fits(x, y, kg):
+                return (x, y, goal[2])
     return None
 
 
