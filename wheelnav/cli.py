@@ -5,6 +5,7 @@ wheelnav mission SCENARIO.yaml           one mission, with a report
 wheelnav campaign [--buildings N]        generated buildings x missions: table, figures
 wheelnav go PLACE [--wait] | cancel | status   the mission API on a live fleet
 wheelnav topic list|echo KEY|hz KEY      look at live topics (--connect for a remote chair)
+wheelnav viz --connect tcp/CHAIR:7447    stream a running fleet to a rerun viewer (--viewer URL)
 wheelnav compose [--check]               docker-compose.yml from the fleet definition
 wheelnav bench planner [--json]          performance figures against a named peer
 wheelnav plan MAP --start X,Y --goal X,Y  a route on a map, without the fleet (--json, --png)
@@ -43,7 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     bench_cli.add_commands(sub)
     campaign_runner.add_commands(sub)
     maptools_cli.add_commands(sub)
-    args = parser.parse_args(argv)
+    raw = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(raw)
+    args.raw_argv = raw  # for commands that hand their flags on to a service as given
     try:
         return int(args.run(args) or 0)
     except ConfigError as exc:

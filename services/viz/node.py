@@ -16,6 +16,7 @@ import rerun as rr
 from services.viz import rerun_log
 from services.viz.blueprint import fleet_blueprint
 from services.viz.fleet_log import FleetLog
+from services.viz.sink_args import add_sink_arguments
 from shared.messages import (
     NavStatus,
     Odometry,
@@ -31,13 +32,6 @@ from shared.service import Service
 from shared.site import Site, SiteError, load_site
 
 NAME = "viz"
-
-
-def _arguments(parser: argparse.ArgumentParser) -> None:
-    sink = parser.add_mutually_exclusive_group()
-    sink.add_argument("--save", metavar="FILE.rrd", help="record to a file")
-    sink.add_argument("--serve", action="store_true", help="serve a web viewer")
-    sink.add_argument("--viewer", metavar="URL", help="connect to a running rerun viewer")
 
 
 def open_sink(args: argparse.Namespace) -> str | None:
@@ -71,7 +65,7 @@ def _site(svc: Service) -> tuple[Site | None, str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    with Service(NAME, __doc__.splitlines()[0], argv, _arguments) as svc:
+    with Service(NAME, __doc__.splitlines()[0], argv, add_sink_arguments) as svc:
         keys, bus = svc.keys, svc.bus
         uri = open_sink(svc.args)
         if uri:

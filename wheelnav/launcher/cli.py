@@ -8,8 +8,9 @@ import sys
 import threading
 from pathlib import Path
 
+from services.viz.sink_args import add_sink_arguments
 from shared import config as config_mod
-from shared.service import add_override_argument
+from shared.service import add_override_argument, add_transport_arguments
 from shared.topics import Keys
 from wheelnav.launcher.compose import render_compose
 from wheelnav.launcher.fleet import PROFILES, services_for
@@ -44,6 +45,27 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         "--check", action="store_true", help="exit 1 if the committed docker-compose.yml differs"
     )
     c.set_defaults(run=run_compose)
+    v = sub.add_parser(
+        "viz",
+        help="stream a running fleet to a rerun viewer",
+        description="Run the viz service here: subscribe to a fleet (--connect, e.g. "
+        "tcp/CHAIR:7447 for a chair started with `wheelnav up --listen tcp/0.0.0.0:7447`) "
+        "and stream to a rerun viewer started on this machine with `rerun` (--viewer "
+        "rerun+http://127.0.0.1:9876/proxy), to a web viewer it serves (--serve), or to a "
+        "file (--save). Ctrl-C stops it.",
+    )
+    add_transport_arguments(v)
+    add_sink_arguments(v)
+    v.set_defaults(run=run_viz)
+
+
+def run_viz(args: argparse.Namespace) -> int:
+    """The viz service in this process, given the flags as they were typed."""
+    from services.viz import node
+
+    raw = args.raw_argv
+    node.main(raw[raw.index("viz") + 1 :])
+    return 0
 
 
 def run_up(args: argparse.Namespace) -> int:
