@@ -146,6 +146,46 @@ def test_every_view_of_the_recorded_layout_shows_entities_the_node_logs(tmp_path
             assert TIMELINE in chunk.timeline_names, chunk.entity_path
 
 
+# archetypes a 2D view cannot draw without a pinhole camera at its origin (the viewer says
+# "3D visualizers require a pinhole at the origin of the 2D view" and leaves them out)
+ONLY_3D = ("GridMap", "Points3D", "Boxes3D", "LineStrips3D", "Arrows3D", "Mesh3D", "Asset3D")
+
+
+def test_the_floor_map_view_shows_only_what_a_2d_view_draws(tmp_path):
+    """Seen in a headless rerun viewer (0.41, llvmpipe) on a recorded demo run: the floor's
+    map, logged as a GridMap (a 3D archetype), was missing from the 2D floor-map view,
+    which reported the error above; only the scan and the route were drawn."""
+    rrd = tmp_path / "run.rrd"
+    record(rrd)
+    _rows, views, _, reader = recorded(rrd)
+    origins = [
+        v["space_origin"][0].strip("/") for v in views.values() if v["class_identifier"] == ["2D"]
+    ]
+    assert origins == ["world"]
+    found = []
+    for chunk in reader.stream(store=reader.recordings()[0]):
+        path = chunk.entity_path.strip("/")
+        if path == "world" or path.startswith("world/"):
+            found += [
+                (path, n)
+                for n in chunk.to_record_batch().schema.names
+                if n.split(":")[0] in ONLY_3D
+            ]
+    assert found == []
+    assert rows_with(reader, "world/map", "Image:buffer") and rows_with(
+        reader, "world/map", "Transform3D:scale"
+    )
+
+
+def rows_with(reader, path: str, column: str) -> int:
+    """Rows of ``path`` that carry ``column``."""
+    return sum(
+        chunk.num_rows
+        for chunk in reader.stream(store=reader.recordings()[0])
+        if chunk.entity_path.strip("/") == path and column in chunk.to_record_batch().schema.names
+    )
+
+
 def test_a_view_naming_an_entity_never_logged_is_caught(tmp_path):
     rrd = tmp_path / "bad.rrd"
     bad = rrb.Blueprint(
