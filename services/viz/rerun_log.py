@@ -66,24 +66,23 @@ def set_time(stamp: float) -> None:
     rr.set_time("sim", duration=stamp)
 
 
+def map_image(cells: np.ndarray) -> np.ndarray:
+    """A floor map's occupancy (ROS: -1 unknown, 0 free .. 100 occupied) as a grey image:
+    free white, occupied black, unknown mid grey; row r is y = origin + r * resolution."""
+    occ = np.clip(cells.astype(np.int16), 0, 100)
+    return np.where(cells < 0, 128, 255 - occ * 255 // 100).astype(np.uint8)
+
+
 def log_site(site: Site, floor: Floor, stamp: float) -> None:
-    """The floor's map as a GridMap (ROS occupancy conventions) and its places, from ``stamp``
-    on: logging another floor later shows that one instead (a lift ride)."""
+    """The floor's map as a grey image placed in metres by a transform (a 2D view draws
+    images, not the 3D GridMap), and its places, from ``stamp`` on: logging another floor
+    later shows that one instead (a lift ride)."""
     set_time(stamp)
     grid = floor.map
-    cells = grid.cells.astype(np.int8)
-    h, w = cells.shape
     rr.log(
         "world/map",
-        rr.GridMap(
-            data=cells.tobytes(),
-            format=rr.components.ImageFormat(
-                width=w, height=h, color_model="L", channel_datatype="U8"
-            ),
-            cell_size=grid.resolution,
-            translation=[grid.origin[0], grid.origin[1], 0.0],
-            colormap=rr.components.Colormap.RvizMap,
-        ),
+        rr.Transform3D(translation=[grid.origin[0], grid.origin[1], 0.0], scale=grid.resolution),
+        rr.Image(map_image(grid.cells)),
     )
     places = [p for p in site.places.values() if p.floor == floor.name]
     if not places:
