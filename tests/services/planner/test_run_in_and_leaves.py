@@ -106,3 +106,24 @@ def test_the_open_leaf_of_a_narrow_door_leaves_its_centre_line_free(tmp_path: Pa
     assert not hinged.is_free((x - 0.45, 3.6), "1")  # the leaf is still an obstacle
     route = routes_for(site).route((1.0, 4.0), "1", (x, 1.2), "1")
     assert [cp.id for cp in route.checkpoints] == ["d"]
+
+
+@pytest.mark.parametrize("swing", ["left", "right"])
+def test_a_hinged_doors_pass_line_runs_through_the_middle_of_its_free_opening(
+    tmp_path: Path, swing: str
+) -> None:
+    """An open hinged leaf stands at its hinge (p1) with half its thickness inside the
+    opening: the free opening is the width less that, its middle a quarter of the
+    thickness towards p2. The campaign measures a door's clearance against that free
+    width, so a pass on the segment's middle gave away 1.25 cm of its 3 cm allowance
+    (campaign b3.m02 at e3a10ae: 0.052 m at a hinged 0.85 m door, required 0.058)."""
+    site = corridor_site(tmp_path, "hinged", swing)
+    (door,) = site.doors
+    route = routes_for(site).route((1.0, 4.0), "1", (5.0, 1.2), "1")
+    (cp,) = route.checkpoints
+    shift = door.leaf_thickness_m / 4  # the hinge is p1 either way; p1 -> p2 runs along +x
+    assert door.leaf_thickness_m == 0.05
+    assert cp.approach[0] == pytest.approx(5.0 + shift, abs=1e-9)
+    assert cp.exit[0] == pytest.approx(5.0 + shift, abs=1e-9)
+    sliding = routes_for(corridor_site(tmp_path / "s")).route((1.0, 4.0), "1", (5.0, 1.2), "1")
+    assert sliding.checkpoints[0].approach[0] == pytest.approx(5.0, abs=1e-9)
