@@ -61,6 +61,9 @@ class GridMap:
         return 0 <= row < self.cells.shape[0] and 0 <= col < self.cells.shape[1]
 
 
+DEFAULT_LEAF_THICKNESS_M = 0.05  # a door leaf, when the site does not say
+
+
 @dataclass
 class Door:
     """A door segment from ``p1`` to ``p2`` on ``floor``."""
@@ -73,11 +76,25 @@ class Door:
     motion: str = "sliding"  # how the leaf moves: "hinged" or "sliding"
     swing: str = "left"  # a hinged leaf turns about p1 towards this side of p1 -> p2
     controller: bool = True  # the building reports this door's state (and opens it if powered)
+    leaf_thickness_m: float = DEFAULT_LEAF_THICKNESS_M
 
     @property
     def width_m(self) -> float:
         """The opening's width: the distance from p1 to p2."""
         return math.hypot(self.p2[0] - self.p1[0], self.p2[1] - self.p1[1])
+
+    @property
+    def pass_centre(self) -> tuple[float, float]:
+        """The middle of the free opening, where a pass crosses: a hinged leaf standing open
+        at its hinge (``p1``) has half its thickness inside the opening, so the middle lies a
+        quarter of the thickness from the segment's towards ``p2``."""
+        mx, my = (self.p1[0] + self.p2[0]) / 2, (self.p1[1] + self.p2[1]) / 2
+        if self.motion != "hinged":
+            return mx, my
+        w, shift = self.width_m, self.leaf_thickness_m / 4
+        return mx + (self.p2[0] - self.p1[0]) / w * shift, my + (
+            self.p2[1] - self.p1[1]
+        ) / w * shift
 
     def open_leaf(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
         """A hinged leaf opened fully (90 degrees about ``p1``, to its ``swing`` side) as a
@@ -393,7 +410,14 @@ def _parse_site(path: Path, data: dict) -> Site:
         controller = d.get("controller", True)
         if not isinstance(controller, bool):
             raise SiteError(f"{where}.controller: must be true or false, got {controller!r}")
-        doors.append(Door(door_id, floor, p1, p2, kind, motion, swing, controller))
+        thickness = _number(d.get("leaf_thickness_m", DEFAULT_LEAF_THICKNESS_M), where)
+        width = math.hypot(p2[0] - p1[0], p2[1] - p1[1])
+        if not 0 < thickness < width / 4:
+            raise SiteError(
+                f"{where}.leaf_thickness_m: must be > 0 and under a quarter of the door's "
+                f"width ({width / 4:.3f} m), got {thickness!r}"
+            )
+        doors.append(Door(door_id, floor, p1, p2, kind, motion, swing, controller, thickness))
     places = {}
     for name, p in (data.get("places") or {}).items():
         where = f"{path}: places.{name}"
@@ -412,7 +436,17 @@ def _parse_site(path: Path, data: dict) -> Site:
     return Site(name, path.parent, floors, doors, places, elevators)
 
 
-_DOOR_KEYS = ("id", "floor", "p1", "p2", "type", "motion", "swing", "controller")
+_DOOR_KEYS = (
+    "id",
+    "floor",
+    "p1",
+    "p2",
+    "type",
+    "motion",
+    "swing",
+    "controller",
+    "leaf_thickness_m",
+)
 DOOR_MOTIONS = ("sliding", "hinged")  # the first is the default
 DOOR_SWINGS = ("left", "right")
 

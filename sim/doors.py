@@ -14,7 +14,6 @@ import pybullet as pb
 
 from shared.site import Door
 
-LEAF_THICKNESS_M = 0.05
 LEAF_HEIGHT_M = 2.0
 
 
@@ -33,7 +32,7 @@ class DoorLeaf:
         self.yaw = math.atan2(y2 - y1, x2 - x1)
         shape = pb.createCollisionShape(
             pb.GEOM_BOX,
-            halfExtents=[self.width / 2, LEAF_THICKNESS_M / 2, LEAF_HEIGHT_M / 2],
+            halfExtents=[self.width / 2, door.leaf_thickness_m / 2, LEAF_HEIGHT_M / 2],
             physicsClientId=client,
         )
         self.body = pb.createMultiBody(0, shape, physicsClientId=client)

@@ -14,7 +14,7 @@ import pybullet as pb
 
 from shared.config import FleetConfig
 from shared.site import Site
-from sim.doors import LEAF_THICKNESS_M, DoorLeaf, LiftBody
+from sim.doors import DoorLeaf, LiftBody
 from sim.lidar3d import MultiRingLidar
 from sim.pedestrians import Pedestrian
 from sim.robot import Chair, ChairState, WheelOdometry
@@ -66,11 +66,14 @@ OPENING_MARGIN_M = 0.15
 def _openings(site: Site, hinged: set[str]) -> dict[str, list[Opening]]:
     """Every door opening per floor: the site's doors (``hinged``: the ids whose leaf
     swings) and each lift's car doors."""
-    segments = [(d.id, d.floor, d.p1, d.p2, d.id in hinged) for d in site.doors]
+    segments = [
+        (d.id, d.floor, d.p1, d.p2, d.leaf_thickness_m if d.id in hinged else 0.0)
+        for d in site.doors
+    ]
     for lift in getattr(site, "elevators", []):
-        segments += [(f"{lift.id}@{f}", f, *lift.doors[f], False) for f in lift.floors]
+        segments += [(f"{lift.id}@{f}", f, *lift.doors[f], 0.0) for f in lift.floors]
     out: dict[str, list[Opening]] = {}
-    for door_id, floor, (x1, y1), (x2, y2), hinged in segments:
+    for door_id, floor, (x1, y1), (x2, y2), leaf in segments:
         width = math.hypot(x2 - x1, y2 - y1)
         if width <= 0:
             continue
@@ -85,7 +88,7 @@ def _openings(site: Site, hinged: set[str]) -> dict[str, list[Opening]]:
                 ny,
                 OPENING_MARGIN_M,
                 width / 2 + OPENING_MARGIN_M,
-                width - (LEAF_THICKNESS_M / 2 if hinged else 0.0),
+                width - leaf / 2,
             )
         )
     return out

@@ -327,8 +327,9 @@ class RoutePlanner:
         leaf = width if towards_chair else 0.0
         before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, leaf)
         after = exit_distance(depth(n), self.cfg.door_exit_m, room)
-        approach = self._free_point(centre, -n, before, floor, door.id)
-        exit_ = self._free_point(centre, n, after, floor, door.id)
+        line = np.asarray(door.pass_centre)  # the free opening's middle (hinged: a leaf in it)
+        approach = self._free_point(line, -n, before, floor, door.id)
+        exit_ = self._free_point(line, n, after, floor, door.id)
         return Checkpoint(
             "door",
             door.id,
