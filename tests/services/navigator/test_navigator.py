@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 
+import numpy as np
 import py_trees
 import pytest
 from py_trees.common import Status
@@ -320,3 +321,35 @@ def test_a_re_plan_that_the_marked_points_shut_off_plans_again_without_them() ->
     assert any(d.startswith("re-plan without the marked points") for _, d in fleet.events)
     fleet.arrive()
     assert step(nav, fleet).state == "succeeded"
+
+
+def test_where_the_turn_cannot_be_made_the_recovery_manoeuvres_onto_the_route_ahead() -> None:
+    # campaign b4.m04: out of a lift lobby into a 1.2 m corridor whose wall runs on from
+    # the lobby's, the MPC reported "blocked" at the corridor's mouth; backing up and the
+    # turn towards the way on (held, no room) left the chair where it was, three times,
+    # and the mission failed. A manoeuvre to a pose on the route ahead (turns and short
+    # drives, planned offline on the map: from the mouth at every margin) gets it in.
+    fleet = ScriptedFleet(AROUND)
+    fleet.turn_room = False
+    nav, out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    docks = []
+    while nav.status.state == "running" and fleet.t < 60.0 and len(fleet.route_requests) < 2:
+        fleet.t += 0.5
+        step(nav, fleet)
+        last = fleet.sent[-1]
+        if last.reverse:
+            fleet.arrive()
+            step(nav, fleet)
+        elif last.dock_heading is not None and last not in docks:
+            docks.append(last)
+        if len(docks) == 2 and fleet.follow.path_id != last.path_id:
+            fleet.arrive()  # the manoeuvre gets there; the turn before it never did
+            step(nav, fleet)
+    onto = [d for k, d in fleet.events if k == "recovery" and d.startswith("manoeuvre onto")]
+    assert onto == ["manoeuvre onto the route: to (1.00, 0.00) facing 0 deg"], fleet.events
+    turn, manoeuvre = docks
+    assert np.allclose(manoeuvre.waypoints[-1], (1.0, 0.0)) and manoeuvre.dock_heading == 0.0
+    assert len(fleet.route_requests) == 2  # then the re-plan, from where it got to
