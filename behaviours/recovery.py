@@ -6,8 +6,12 @@ face the way on (on the spot when nothing stands within the chair's turning radi
 by the controller's docking manoeuvre: turns and short drives forwards and back that fit
 the room its LiDAR shows), each bounded by ``navigator.recovery_move_timeout_s`` and
 each reported as a ``recovery`` event; a move that cannot be made is reported and
-skipped. The navigator then re-plans with the points that blocked the chair marked as
-obstacles.
+skipped. Where the turn cannot be made (the chair stands at the mouth of a corridor as
+narrow as itself is long, its walls beside it), it docks instead at a pose on the route
+ahead, facing along it: the docker's manoeuvre (turns and short drives) takes it into
+the corridor where neither the MPC nor a turn on the spot can, bounded by that limit
+plus ``navigator.manoeuvre_allowance_s``. The navigator then re-plans with the points
+that blocked the chair marked as obstacles.
 """
 
 from __future__ import annotations
@@ -130,26 +134,83 @@ class TurnToward(FleetBehaviour):
             self.fleet.stop()
 
 
+class OntoRoute(DockAt):
+    """Dock at ``pose`` (x, y, heading) on the route ahead, reported as a recovery: where
+    no turn on the spot fits, the docker's manoeuvre gets the chair onto its way."""
+
+    def __init__(self, floor: str, pose: tuple[float, float, float], nav: NavigatorConfig) -> None:
+        super().__init__(
+            "Onto the route",
+            Phase.RECOVER,
+            floor,
+            pose[:2],
+            pose[2],
+            nav.correction_speed,
+            nav.position_tolerance_m,
+            nav.turn_tolerance_deg,
+            1,
+            nav.correction_stall_s,
+        )
+
+    def initialise(self) -> None:
+        x, y = self.target
+        self.fleet.event(
+            "recovery",
+            f"manoeuvre onto the route: to ({x:.2f}, {y:.2f}) facing "
+            f"{math.degrees(self.heading):.0f} deg",
+        )
+        super().initialise()
+
+    def update(self) -> Status:
+        status = super().update()
+        if status == Status.FAILURE:
+            self.fleet.event(
+                "recovery", f"manoeuvre onto the route failed: {self.feedback_message}"
+            )
+        return status
+
+
 def create_recovery_tree(
     face: tuple[float, float],
     turn_radius_m: float,
     back_speed: float,
     nav: NavigatorConfig,
     clock: Callable[[], float],
+    onto: tuple[str, tuple[float, float, float]] | None = None,
 ) -> py_trees.behaviour.Behaviour:
-    """Back up, then turn in place towards ``face``; each bounded, a failure skipped."""
+    """Back up, then turn in place towards ``face`` or, where that fails, dock at the
+    route's pose ``onto`` (floor, (x, y, heading)); each bounded, a failure skipped."""
     limit = nav.recovery_move_timeout_s
 
-    def bounded(child: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
+    def bounded(
+        child: py_trees.behaviour.Behaviour, extra_s: float = 0.0
+    ) -> py_trees.behaviour.Behaviour:
         return py_trees.decorators.FailureIsSuccess(
-            f"{child.name} (or skip)", Timeout(child.name, child, limit, clock)
+            f"{child.name} (or skip)", Timeout(child.name, child, limit + extra_s, clock)
         )
 
+    turn: py_trees.behaviour.Behaviour = Timeout(
+        "Turn in place", TurnToward(face, turn_radius_m, nav), limit, clock
+    )
+    if onto is not None:
+        turn = py_trees.composites.Selector(
+            "Turn or manoeuvre",
+            memory=True,
+            children=[
+                turn,
+                Timeout(
+                    "Onto the route",
+                    OntoRoute(onto[0], onto[1], nav),
+                    limit + nav.manoeuvre_allowance_s,
+                    clock,
+                ),
+            ],
+        )
     return py_trees.composites.Sequence(
         "Recover",
         memory=True,
         children=[
             bounded(BackUp(nav.backup_m, back_speed)),
-            bounded(TurnToward(face, turn_radius_m, nav)),
+            py_trees.decorators.FailureIsSuccess(f"{turn.name} (or skip)", turn),
         ],
     )

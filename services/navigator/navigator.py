@@ -40,6 +40,7 @@ from shared.messages import (
 )
 
 NAME = "navigator"
+WAY_ON_M = 1.5  # how far along the route a recovery faces, or manoeuvres onto it
 
 
 class NavigatorOutput(Protocol):
@@ -260,6 +261,7 @@ class Navigator:
                 self.entry.nav.correction_speed,
                 self.cfg,
                 self.fleet.now,
+                self._onto(),
             )
         )
         self._set("running", phase=Phase.RECOVER, action="recover")
@@ -286,7 +288,7 @@ class Navigator:
         return True
 
     def _way_on(self) -> tuple[float, float]:
-        """The point to face after backing up: 1.5 m on along the route being driven from
+        """The point to face after backing up: ``WAY_ON_M`` on along the route being driven from
         its point nearest the chair (the route's end if nearer; the chair's front without a
         route or pose)."""
         est = self.fleet.pose()
@@ -294,7 +296,7 @@ class Navigator:
         if est is None:
             return (0.0, 0.0)
         p = est.pose
-        ahead = (p.x + 1.5 * math.cos(p.theta), p.y + 1.5 * math.sin(p.theta))
+        ahead = (p.x + WAY_ON_M * math.cos(p.theta), p.y + WAY_ON_M * math.sin(p.theta))
         if route is None or not route.legs:
             return ahead
         legs = [leg for leg in route.legs if leg.floor in ("", p.floor)] or route.legs
@@ -303,9 +305,36 @@ class Navigator:
             return ahead
         i = int(np.argmin(np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)))
         seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
-        j = i + int(np.searchsorted(np.cumsum(seg), 1.5)) + 1 if len(seg) else i
+        j = i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1 if len(seg) else i
         x, y = pts[min(j, len(pts) - 1)]
         return float(x), float(y)
+
+    def _onto(self) -> tuple[str, tuple[float, float, float]] | None:
+        """A pose on the leg being driven, ``WAY_ON_M`` on from its point nearest the chair
+        (its end if nearer), facing along the leg there: where the recovery's manoeuvre
+        docks when no turn on the spot fits. None without a route or a pose."""
+        est = self.fleet.pose()
+        route = self.bb.route
+        if est is None or route is None:
+            return None
+        p = est.pose
+        best: tuple[float, np.ndarray, int, str] | None = None
+        for leg in route.legs:
+            pts = np.asarray(leg.waypoints, float)
+            if (p.floor and leg.floor not in ("", p.floor)) or len(pts) < 2:
+                continue
+            d = np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)
+            i = int(np.argmin(d))
+            if best is None or d[i] < best[0]:
+                best = (float(d[i]), pts, i, leg.floor)
+        if best is None:
+            return None
+        _, pts, i, floor = best
+        seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
+        j = min(i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1, len(pts) - 1)
+        j = max(j, 1)
+        (ax, ay), (bx, by) = pts[j - 1], pts[j]
+        return p.floor or floor, (float(bx), float(by), math.atan2(by - ay, bx - ax))
 
     def _failure_reason(self) -> str:
         """Why the mission failed, with the fallbacks tried first. A re-plan that found no
