@@ -358,3 +358,17 @@ def test_arriving_sideways_in_a_narrow_corridor_it_drives_onto_the_line_before_t
     assert d.arrived, (round(d.t, 1), round(d.x, 3), round(d.y, 3), round(d.th, 2))
     assert abs(d.y) <= DOCK.lateral_tolerance_m + 1e-3, (round(d.x, 3), round(d.y, 3))
     assert d.t < 12.0
+
+
+def test_far_from_the_goal_the_final_stage_does_not_shift_across() -> None:
+    """Campaign b4.m04 at 618c17e: a target 2.1 m away that did not fit the margin sent
+    the move stage to the final stage (boxed in both ways), whose drive along the heading
+    to take out the error across, meant for a goal within reach, backed the chair 0.2 m
+    away from the corridor it was to enter. Far from the goal the final stage turns."""
+    fp = RobotConfig().footprint
+    wall = np.array([[0.37, y] for y in np.arange(-1.0, 1.0, 0.02)])  # 4.5 cm beside it
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, math.pi / 2)
+    cmd = docker.step(0.2, -2.1, math.radians(10), obstacles=wall)
+    assert docker.stage == "final"
+    assert cmd.v == 0.0 and cmd.w > 0.0  # turning towards the goal heading, not driving
