@@ -359,9 +359,11 @@ class Docker:
         """Metres to drive along the chair's heading (negative: backwards) before the
         final turn, so the goal's error across its heading is gone: 0 unless the goal
         itself is more than ``lateral_tolerance_m`` across, the chair is turned more than
-        ``SHIFT_RAD`` off (so the drive is short and mostly across), it is within
-        ``FACE_REACH_M`` and the footprint where it ends holds no point."""
+        ``SHIFT_RAD`` off (so the drive is short and mostly across), the goal and the drive
+        are within ``FACE_REACH_M`` and the footprint where it ends holds no point."""
         if self.goal != self._target or abs(math.sin(heading_err)) < math.sin(SHIFT_RAD):
+            return 0.0
+        if math.hypot(ex, ey) > FACE_REACH_M:  # far: the final stage only as a way round
             return 0.0
         across = -ex * math.sin(goal_heading) + ey * math.cos(goal_heading)
         if abs(across) <= self.limits.lateral_tolerance_m:
