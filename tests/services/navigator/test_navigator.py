@@ -269,17 +269,24 @@ def test_blocked_tries_recoveries_in_order_then_stops_with_the_reason() -> None:
     assert "2 recoveries" in nav.status.reason
 
 
+def blocked_with_no_room_to_turn() -> tuple[Navigator, ScriptedFleet]:
+    """A mission on its first leg, the controller reporting "blocked", no room to turn on
+    the spot; one recovery allowed."""
+    fleet = ScriptedFleet(AROUND)
+    fleet.turn_room = False
+    nav, _out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    return nav, fleet
+
+
 def test_with_no_room_to_turn_on_the_spot_the_turn_recovery_manoeuvres() -> None:
     # campaign b2.m00, b2.m04, b10.m00 and others: wedged in a small room, "back up not
     # possible" and "turn in place skipped: no room to turn" left only re-plans from the
     # same pose. Now the turn is a docking manoeuvre (the controller's docker plans turns
     # and short drives that fit the room its LiDAR shows).
-    fleet = ScriptedFleet(AROUND)
-    fleet.turn_room = False
-    nav, out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
-    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
-    step(nav, fleet)
-    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    nav, fleet = blocked_with_no_room_to_turn()
     docks = []
     while nav.status.state == "running" and fleet.t < 30.0:
         fleet.t += 0.5
@@ -329,12 +336,7 @@ def test_where_the_turn_cannot_be_made_the_recovery_manoeuvres_onto_the_route_ah
     # turn towards the way on (held, no room) left the chair where it was, three times,
     # and the mission failed. A manoeuvre to a pose on the route ahead (turns and short
     # drives, planned offline on the map: from the mouth at every margin) gets it in.
-    fleet = ScriptedFleet(AROUND)
-    fleet.turn_room = False
-    nav, out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
-    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
-    step(nav, fleet)
-    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    nav, fleet = blocked_with_no_room_to_turn()
     docks = []
     while nav.status.state == "running" and fleet.t < 60.0 and len(fleet.route_requests) < 2:
         fleet.t += 0.5
