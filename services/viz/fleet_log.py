@@ -37,9 +37,14 @@ class FleetLog:
     """Logs the fleet's messages; messages that need context get it here."""
 
     def __init__(
-        self, footprint: Footprint, site: Site | None = None, start_floor: str = ""
+        self,
+        footprint: Footprint,
+        site: Site | None = None,
+        start_floor: str = "",
+        scan_band_m: float | None = None,
     ) -> None:
         self.footprint = footprint
+        self.scan_band_m = scan_band_m  # the scan points shown: this near the sensor's height
         self.site = site
         self.start_floor = start_floor  # for estimates that name no floor
         self.floor = ""  # the floor whose map is shown
@@ -75,7 +80,7 @@ class FleetLog:
         rerun_log.log_truth(msg, self.footprint)
 
     def on_scan(self, msg: PointCloud) -> None:
-        rerun_log.log_scan(msg, self.pose)
+        rerun_log.log_scan(msg, self.pose, self.scan_band_m)
 
     def on_path(self, msg: Path) -> None:
         rerun_log.log_path(msg, self.stamp)

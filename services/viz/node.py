@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> None:
         if uri:
             svc.log.info("serving the recording on %s", uri)
         site, floor = _site(svc)
-        log = FleetLog(svc.cfg.robot.footprint, site, floor)
+        log = FleetLog(svc.cfg.robot.footprint, site, floor, svc.cfg.localisation.scan_band_m)
 
         def sub(key: str, kind: type, handler: Callable[..., None]) -> None:
             bus.subscribe(svc.declare("subscribes", key), kind, handler)

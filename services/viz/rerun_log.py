@@ -175,17 +175,26 @@ def log_command(msg: Twist) -> None:
     rr.log("plots/speed/commanded", rr.Scalars(msg.v))
 
 
-def log_scan(msg: PointCloud, pose: PoseEstimate | None) -> None:
-    """Scan points moved into the world frame with the latest pose estimate."""
+def scan_in_world(points: np.ndarray, pose: PoseEstimate, band_m: float | None) -> np.ndarray:
+    """Scan points (N, 3, sensor frame) within ``band_m`` of the sensor's height (all with
+    None), moved into the world frame (N, 2) with ``pose``: a 3-D LiDAR's floor returns
+    would draw rings on the map that no wall stands on."""
+    pts = points if band_m is None else points[np.abs(points[:, 2]) < band_m]
+    c, s = math.cos(pose.pose.theta), math.sin(pose.pose.theta)
+    xy = pts[:, :2].astype(np.float64)
+    return np.stack(
+        [pose.pose.x + c * xy[:, 0] - s * xy[:, 1], pose.pose.y + s * xy[:, 0] + c * xy[:, 1]],
+        axis=1,
+    )
+
+
+def log_scan(msg: PointCloud, pose: PoseEstimate | None, band_m: float | None = None) -> None:
+    """Scan points (those within ``band_m`` of the sensor's height) moved into the world
+    frame with the latest pose estimate."""
     if pose is None:
         return
     set_time(msg.stamp)
-    c, s = math.cos(pose.pose.theta), math.sin(pose.pose.theta)
-    pts = msg.points[:, :2].astype(np.float64)
-    world = np.stack(
-        [pose.pose.x + c * pts[:, 0] - s * pts[:, 1], pose.pose.y + s * pts[:, 0] + c * pts[:, 1]],
-        axis=1,
-    )
+    world = scan_in_world(msg.points, pose, band_m)
     rr.log("world/chair/scan", rr.Points2D(world, radii=0.03, colors=[SCAN_COLOUR]))
 
 

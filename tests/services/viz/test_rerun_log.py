@@ -9,7 +9,12 @@ import numpy as np
 import rerun as rr
 
 from services.viz.fleet_log import FleetLog, TruthByStamp
-from services.viz.rerun_log import footprint_outline, localisation_error, tree_layout
+from services.viz.rerun_log import (
+    footprint_outline,
+    localisation_error,
+    scan_in_world,
+    tree_layout,
+)
 from shared.config import Footprint
 from shared.messages import Odometry, Pose2D, PoseEstimate, TreeNode
 from tests.services.viz.fakes import tiny_site
@@ -64,3 +69,14 @@ def test_the_map_shown_follows_the_floor_the_estimate_names():
         assert log.floor == "2"  # not a floor of the site: the last map stays
     finally:
         rr.set_global_data_recording(None)
+
+
+def test_the_scan_shown_on_the_map_leaves_out_the_floor_returns():
+    """Seen in a headless viewer on the demo: rings of a 3-D LiDAR's floor returns drawn
+    across the floor map as if walls stood there. Only points near the sensor's height
+    (as the controller and the localisation take them) are shown."""
+    pts = np.array([[1.0, 0.0, 0.05], [2.0, 0.0, -0.6], [0.0, 1.0, -0.1]], dtype=np.float32)
+    pose = PoseEstimate(0.0, Pose2D(10.0, 5.0, math.pi / 2, "1"), np.eye(3))
+    shown = scan_in_world(pts, pose, 0.5)
+    assert np.allclose(shown, [[10.0, 6.0], [9.0, 5.0]], atol=1e-6)
+    assert len(scan_in_world(pts, pose, None)) == 3
