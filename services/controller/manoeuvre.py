@@ -84,22 +84,34 @@ class Room:
 
     def fits(self, x: float, y: float, k: int) -> bool:
         """Whether the chair at (x, y) with heading step ``k`` is clear."""
-        r, c = self.cell(x, y)
+        r = math.floor((y - self.oy) / self.res)
+        c = math.floor((x - self.ox) / self.res)
         h, w = self.shape
         return 0 <= r < h and 0 <= c < w and bool(self.free[k % HEADINGS, r, c])
 
     def turn_fits(self, x: float, y: float, k0: int, k1: int) -> bool:
         """Whether turning on the spot from step ``k0`` to ``k1`` (the short way) is clear."""
         d = (k1 - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2
+        r = math.floor((y - self.oy) / self.res)
+        c = math.floor((x - self.ox) / self.res)
+        h, w = self.shape
+        if not (0 <= r < h and 0 <= c < w):
+            return False
         step = 1 if d >= 0 else -1
-        return all(self.fits(x, y, k0 + i * step) for i in range(abs(d) + 1))
+        column = self.free[:, r, c]  # one cell: every heading step at once
+        return all(column[(k0 + i * step) % HEADINGS] for i in range(abs(d) + 1))
 
     def drive_fits(self, x0: float, y0: float, x1: float, y1: float, k: int) -> bool:
         """Whether driving straight from (x0, y0) to (x1, y1) with heading step ``k`` is clear."""
         n = max(1, math.ceil(math.hypot(x1 - x0, y1 - y0) / (self.res / 2)))
-        return all(
-            self.fits(x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * i / n, k) for i in range(n + 1)
-        )
+        free, res, ox, oy = self.free[k % HEADINGS], self.res, self.ox, self.oy
+        h, w = self.shape
+        for i in range(n + 1):
+            r = math.floor((y0 + (y1 - y0) * i / n - oy) / res)
+            c = math.floor((x0 + (x1 - x0) * i / n - ox) / res)
+            if not (0 <= r < h and 0 <= c < w and free[r, c]):
+                return False
+        return True
 
 
 def _footprint_kernel(body: ManoeuvreBody, grow: float, theta: float, res: float) -> np.ndarray:
@@ -131,10 +143,15 @@ def step_heading(k: int) -> float:
 
 
 def simple_manoeuvre(
-    room: Room, start: tuple[float, float, float], goal: tuple[float, float, float]
+    room: Room,
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    goal_turns: dict[int, bool] | None = None,
 ) -> list[tuple[float, float, float]] | None:
     """Turn to face the goal's position (or turn away from it to back up to it), drive
-    there, turn to the goal heading: the poses after each part, or None if neither fits."""
+    there, turn to the goal heading: the poses after each part, or None if neither fits.
+    ``goal_turns`` caches, per heading step, whether the last turn fits (the goal is the
+    same for every pose a search tries this from)."""
     x0, y0, t0 = start
     x1, y1, t1 = goal
     k0, kg = heading_step(t0), heading_step(t1)
@@ -142,13 +159,12 @@ def simple_manoeuvre(
     if dist < room.res:
         return [(x0, y0, t1)] if room.turn_fits(x0, y0, k0, kg) else None
     face = math.atan2(y1 - y0, x1 - x0)
+    turns = {} if goal_turns is None else goal_turns
     for drive in (face, wrap_angle(face + math.pi)):
         k = heading_step(drive)
-        if (
-            room.turn_fits(x0, y0, k0, k)
-            and room.drive_fits(x0, y0, x1, y1, k)
-            and room.turn_fits(x1, y1, k, kg)
-        ):
+        if k not in turns:
+            turns[k] = room.turn_fits(x1, y1, k, kg)
+        if turns[k] and room.drive_fits(x0, y0, x1, y1, k) and room.turn_fits(x0, y0, k0, k):
             return [(x0, y0, drive), (x1, y1, drive), (x1, y1, t1)]
     return None
 
@@ -196,6 +212,7 @@ def plan_manoeuvre(
     best[key0], parent[key0], node_of[key0] = 0.0, None, first
     queue = [(heuristic(start[0], start[1]), 0.0, key0)]
     expanded = 0
+    goal_turns: dict[int, bool] = {}
     while queue and expanded < costs.max_expansions:
         _, g, key = heapq.heappop(queue)
         if g > best.get(key, math.inf):
@@ -205,7 +222,7 @@ def plan_manoeuvre(
         near = math.hypot(goal[0] - x, goal[1] - y) < reach
         if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= steps_off:
             return _poses(_chain(parent, node_of, key))  # there, within the reach
-        tail = simple_manoeuvre(room, (x, y, step_heading(k)), goal)
+        tail = simple_manoeuvre(room, (x, y, step_heading(k)), goal, goal_turns)
         if tail is not None:
             return _poses(_chain(parent, node_of, key)) + tail
         moves = [
