@@ -18,6 +18,7 @@ from shared.codec import decode, encode
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
     Availability,
+    Checkpoint,
     DoorMode,
     FollowStatus,
     NavGoal,
@@ -355,3 +356,20 @@ def test_where_the_turn_cannot_be_made_the_recovery_manoeuvres_onto_the_route_ah
     turn, manoeuvre = docks
     assert np.allclose(manoeuvre.waypoints[-1], (1.0, 0.0)) and manoeuvre.dock_heading == 0.0
     assert len(fleet.route_requests) == 2  # then the re-plan, from where it got to
+
+
+def test_the_manoeuvre_onto_a_doors_approach_pose_takes_its_heading() -> None:
+    # campaign b8.m03: blocked short of a door at the end of a corridor, the leg's last
+    # piece came in at -130 deg (no room for a run-in); the manoeuvre onto the route aimed
+    # at the approach pose facing -130 deg instead of the door's 180.
+    cp = door()
+    slanted = leg("r.0", (0.0, 0.5), (1.0, 0.0))  # ends at the approach pose, slanting in
+    turned = RouteReply(True, leg("r"), legs=[slanted, leg("r.1", (3.2, 0.0), (6.0, 0.0))])
+    turned.checkpoints = [Checkpoint("door", "d1", "1", Pose2D(1, 0, 0.3, "1"), cp.exit, 2.2)]
+    fleet = ScriptedFleet(turned)
+    nav, _out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.x, fleet.y = 0.5, 0.25
+    floor, pose = nav._onto()
+    assert pose == (1.0, 0.0, 0.3)
