@@ -311,8 +311,9 @@ class Navigator:
 
     def _onto(self) -> tuple[str, tuple[float, float, float]] | None:
         """A pose on the leg being driven, ``WAY_ON_M`` on from its point nearest the chair
-        (its end if nearer), facing along the leg there: where the recovery's manoeuvre
-        docks when no turn on the spot fits. None without a route or a pose."""
+        (its end if nearer), facing along the leg there (at a door's or a lift's approach
+        pose, its heading): where the recovery's manoeuvre docks when no turn on the spot
+        fits. None without a route or a pose."""
         est = self.fleet.pose()
         route = self.bb.route
         if est is None or route is None:
@@ -334,7 +335,11 @@ class Navigator:
         j = min(i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1, len(pts) - 1)
         j = max(j, 1)
         (ax, ay), (bx, by) = pts[j - 1], pts[j]
-        return p.floor or floor, (float(bx), float(by), math.atan2(by - ay, bx - ax))
+        heading = math.atan2(by - ay, bx - ax)
+        for cp in route.checkpoints:  # the leg's end at a door or a lift: its approach heading
+            if math.hypot(cp.approach.x - bx, cp.approach.y - by) < 0.01:
+                heading = cp.approach.theta
+        return p.floor or floor, (float(bx), float(by), heading)
 
     def _failure_reason(self) -> str:
         """Why the mission failed, with the fallbacks tried first. A re-plan that found no
