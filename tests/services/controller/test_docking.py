@@ -372,21 +372,3 @@ def test_far_from_the_goal_the_final_stage_does_not_shift_across() -> None:
     cmd = docker.step(0.2, -2.1, math.radians(10), obstacles=wall)
     assert docker.stage == "final"
     assert cmd.v == 0.0 and cmd.w > 0.0  # turning towards the goal heading, not driving
-
-
-def test_a_turn_is_not_sent_the_long_way_round_into_what_stands_behind() -> None:
-    """Campaign b3.m03 at 65eb10a: 12 deg short of its heading before a door, the short
-    way would sweep a corner near a point; the docker checked the first 15 deg of the
-    long way only and turned 345 deg the other way round, where the guard stopped it
-    twice 4.3 cm from a wall (the campaign's 5 cm limit away from doors). The long way
-    is taken only if the whole of it is clear."""
-    fp = RobotConfig().footprint
-    ahead_left = np.array([[0.68, 0.45]])  # a 12 deg left turn brings the corner to it
-    behind = np.array([[-0.75, y] for y in np.arange(-0.3, 0.31, 0.02)])  # a wall behind
-    docker = Docker(DOCK, fp, 0.05)
-    docker.set_goal(0.0, 0.0, math.radians(12))
-    cmd = docker.step(0.0, 0.0, 0.0, obstacles=np.vstack((ahead_left, behind)))
-    assert cmd.v == 0.0 and cmd.w > 0.0  # the short way (held, a manoeuvre if need be)
-    clear = Docker(DOCK, fp, 0.05)
-    clear.set_goal(0.0, 0.0, math.radians(12))
-    assert clear.step(0.0, 0.0, 0.0, obstacles=ahead_left).w < 0.0  # nothing behind: long way
