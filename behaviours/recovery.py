@@ -182,11 +182,9 @@ def create_recovery_tree(
     route's pose ``onto`` (floor, (x, y, heading)); each bounded, a failure skipped."""
     limit = nav.recovery_move_timeout_s
 
-    def bounded(
-        child: py_trees.behaviour.Behaviour, extra_s: float = 0.0
-    ) -> py_trees.behaviour.Behaviour:
+    def bounded(child: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
         return py_trees.decorators.FailureIsSuccess(
-            f"{child.name} (or skip)", Timeout(child.name, child, limit + extra_s, clock)
+            f"{child.name} (or skip)", Timeout(child.name, child, limit, clock)
         )
 
     turn: py_trees.behaviour.Behaviour = Timeout(

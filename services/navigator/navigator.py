@@ -43,6 +43,13 @@ NAME = "navigator"
 WAY_ON_M = 1.5  # how far along the route a recovery faces, or manoeuvres onto it
 
 
+def _way_on_index(pts: np.ndarray, i: int) -> int:
+    """The index of the first point of ``pts`` (N, 2) at least ``WAY_ON_M`` along them
+    from point ``i`` (the last point if they end sooner)."""
+    seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
+    return min(i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1, len(pts) - 1)
+
+
 class NavigatorOutput(Protocol):
     """Where the navigator's own messages go."""
 
@@ -304,9 +311,7 @@ class Navigator:
         if len(pts) == 0:
             return ahead
         i = int(np.argmin(np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)))
-        seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
-        j = i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1 if len(seg) else i
-        x, y = pts[min(j, len(pts) - 1)]
+        x, y = pts[_way_on_index(pts, i)]
         return float(x), float(y)
 
     def _onto(self) -> tuple[str, tuple[float, float, float]] | None:
@@ -331,9 +336,7 @@ class Navigator:
         if best is None:
             return None
         _, pts, i, floor = best
-        seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
-        j = min(i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1, len(pts) - 1)
-        j = max(j, 1)
+        j = max(_way_on_index(pts, i), 1)
         (ax, ay), (bx, by) = pts[j - 1], pts[j]
         heading = math.atan2(by - ay, bx - ax)
         for cp in route.checkpoints:  # the leg's end at a door or a lift: its approach heading
