@@ -171,16 +171,19 @@ def test_near_the_target_it_does_not_spin_to_face_it() -> None:
 
 def test_a_turn_on_the_spot_goes_the_other_way_round_when_a_corner_would_sweep_a_wall() -> None:
     # campaign b0.m03: in the small room between two doors in series, the turn the short
-    # way swung the rear corner into the open leaf beside it and the guard held it for ever
+    # way swung a corner into the open leaf beside it and the guard held it for ever. The
+    # rear corners sweep nearly the whole circle of their radius on the long way (270
+    # deg), so only a point off the front can be one that the long way leaves alone.
     from shared.config import RobotConfig as Robot
 
     fp = Robot().footprint
-    wall = np.array([[-0.45, y] for y in np.arange(0.05, 0.5, 0.02)])  # behind, on the left
+    leaf = np.array([[0.7 * math.cos(a), 0.7 * math.sin(a)] for a in np.radians([38, 40, 42])])
     docker = Docker(DOCK, fp, 0.05)
     docker.set_goal(0.0, 0.0, math.pi / 2)  # a quarter turn left, on the spot
-    cmd = docker.step(0.0, 0.0, 0.0, obstacles=wall)
-    # turning left, the rear-left corner (0.35 back, 0.325 aside) swings into it: go right
-    turned = docker.step(0.0, 0.0, 0.0, obstacles=wall)
+    cmd = docker.step(0.0, 0.0, 0.0, obstacles=leaf)
+    # turning left, the front-right corner (0.76 ahead, 0.325 aside) swings into it: go
+    # right, where neither front corner comes near it in 270 deg
+    turned = docker.step(0.0, 0.0, 0.0, obstacles=leaf)
     assert cmd.w < 0 and turned.w < 0
     clear = Docker(DOCK, fp, 0.05)
     clear.set_goal(0.0, 0.0, math.pi / 2)
@@ -210,7 +213,7 @@ def dock_in_series_room(start: tuple[float, float, float], goal: tuple[float, fl
         local = np.column_stack(
             (dx * math.cos(th) + dy * math.sin(th), -dx * math.sin(th) + dy * math.cos(th), 0 * dx)
         )
-        cv, cw, _ = guard(cmd.v, cmd.w, cmd.state, t, True, t, local, robot, cfg, 1.0)
+        cv, cw, _ = guard(cmd.v, cmd.w, cmd.state, t, True, t, local, robot, cfg, 1.0, True)
         v += (cv - v) * dt / LAG_S
         w += (cw - w) * dt / LAG_S
         x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
@@ -372,3 +375,24 @@ def test_far_from_the_goal_the_final_stage_does_not_shift_across() -> None:
     cmd = docker.step(0.2, -2.1, math.radians(10), obstacles=wall)
     assert docker.stage == "final"
     assert cmd.v == 0.0 and cmd.w > 0.0  # turning towards the goal heading, not driving
+
+
+def test_a_turn_is_not_sent_the_long_way_round_into_what_stands_behind() -> None:
+    """Campaign b3.m03 at 65eb10a: 12 deg short of its heading before a door, the short
+    way would sweep a corner near a point; the docker checked the first 15 deg of the
+    long way only and turned 345 deg the other way round, where the guard stopped it
+    twice 4.3 cm from a wall (the campaign's 5 cm limit away from doors). The long way
+    is taken only if the whole of it is clear."""
+    fp = RobotConfig().footprint
+    ahead_left = np.array([[0.68, 0.45]])  # a 12 deg left turn brings the corner to it
+    behind = np.array([[-0.75, y] for y in np.arange(-0.3, 0.31, 0.02)])  # a wall behind
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, math.radians(12))
+    cmd = docker.step(0.0, 0.0, 0.0, obstacles=np.vstack((ahead_left, behind)))
+    assert cmd.v == 0.0 and cmd.w > 0.0  # the short way (held, a manoeuvre if need be)
+    # a half turn: the first 15 deg of 170 to the left bring the front-left corner to a
+    # point 35 deg off the nose that 190 deg to the right never comes near: taken
+    left = np.array([[0.75 * math.cos(math.radians(35)), 0.75 * math.sin(math.radians(35))]])
+    half = Docker(DOCK, fp, 0.05)
+    half.set_goal(0.0, 0.0, math.radians(170))
+    assert half.step(0.0, 0.0, 0.0, obstacles=left).w < 0.0
