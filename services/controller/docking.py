@@ -52,7 +52,13 @@ import numpy as np
 from services.controller.command import Command
 from services.controller.manoeuvre import ManoeuvreBody, Room, plan_manoeuvre
 from shared.config import ControllerConfig, Footprint, RobotConfig
-from shared.geometry import angle_between, in_footprint, turn_closes_in, wrap_angle
+from shared.geometry import (
+    angle_between,
+    in_footprint,
+    moves_close_in,
+    turn_closes_in,
+    wrap_angle,
+)
 
 ALIGN_RAD = math.radians(10)  # turn on the spot first when the target is further off
 MIN_SPEED = 0.03  # m/s: below this the chair barely moves against its motor lag
@@ -60,6 +66,7 @@ MIN_TURN = 0.08  # rad/s
 LEAVE_FACTOR = 2.0  # the final stage starts over if the error grows past this x near_m
 SWITCH_RAD = math.radians(20)  # hysteresis of the forwards / backwards choice
 SWEEP_RAD = math.radians(15)  # a turn on the spot looks this far ahead for its corners
+LONG_STEP_RAD = math.radians(5)  # the long way round is checked at this step, all of it
 STUCK_S = 1.5  # commanded to move, not moving this long: plan a manoeuvre
 STUCK_M, STUCK_RAD = 0.01, math.radians(1)  # what counts as moving
 VIA_TOLERANCE_M = 0.03  # how near each pose of a manoeuvre is reached
@@ -377,14 +384,14 @@ class Docker:
 
     def _turn(self, w: float, left_rad: float = SWEEP_RAD) -> float:
         """``w`` for a turn on the spot (``left_rad`` of it to go), or the other way round
-        when this way would sweep a corner into an obstacle point and the other way would
-        not (a wall or an open leaf on one side in the small room between two doors); kept
-        until aligned."""
+        when this way would sweep a corner into an obstacle point and the whole of the
+        other way would not (a point off the front on one side, near a half turn); kept
+        until aligned. Neither: this way, marked cramped (a manoeuvre may be needed)."""
         if self._turn_sign:
             return math.copysign(abs(w), self._turn_sign)
         if self._sweeps(w, left_rad):
             self._cramped = True  # the short way is held: a manoeuvre may be needed
-            if not self._sweeps(-w):
+            if not self._sweeps_all(-w, 2.0 * math.pi - left_rad):
                 self._turn_sign = -math.copysign(1.0, w)
                 return -w
         return w
@@ -393,15 +400,38 @@ class Docker:
         """True if turning on the spot the way of ``w``, ``SWEEP_RAD`` or the ``left_rad``
         still to go if less, brings an obstacle point within ``margin_m`` of the footprint,
         or one already that near nearer still (none, without points)."""
+        local = self._local_points()
+        if local is None:
+            return False
+        fp = self.footprint
+        angle = math.copysign(min(SWEEP_RAD, left_rad), w)
+        return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
+
+    def _sweeps_all(self, w: float, turn_rad: float) -> bool:
+        """True if turning on the spot the way of ``w`` by the whole of ``turn_rad`` (at
+        ``LONG_STEP_RAD`` steps) brings an obstacle point within ``margin_m`` of the
+        footprint, or one already that near nearer still: the long way round is taken only
+        when all of it is clear, not its first ``SWEEP_RAD`` (on a long turn the corners
+        sweep nearly their whole circles)."""
+        local = self._local_points()
+        if local is None:
+            return False
+        fp = self.footprint
+        steps = max(1, math.ceil(turn_rad / LONG_STEP_RAD))
+        angles = np.linspace(turn_rad / steps, turn_rad, steps)
+        poses = [(0.0, 0.0, math.copysign(float(a), w)) for a in angles]
+        return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
+
+    def _local_points(self) -> np.ndarray | None:
+        """The obstacle points in the chair's frame at its pose (None: no points or no
+        footprint to check them against)."""
         fp, pts = self.footprint, self._obstacles
         if pts is None or fp is None or len(pts) == 0:
-            return False
+            return None
         x, y, theta = self._pose
         c, s = math.cos(theta), math.sin(theta)
         dx, dy = pts[:, 0] - x, pts[:, 1] - y
-        local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
-        angle = math.copysign(min(SWEEP_RAD, left_rad), w)
-        return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
+        return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
 
     def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
         """True if the footprint (grown by ``margin_m``) at the goal point facing
