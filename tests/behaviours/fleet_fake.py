@@ -41,6 +41,7 @@ class ScriptedFleet:
         self.route_requests: list[tuple[Pose2D | None, str, list[str]]] = []
         self.sent: list[Path] = []
         self.stops = 0
+        self.commands: list[str] = []  # what the controller was told, in order: path ids, "stop"
         self.follow: FollowStatus | None = None
         self.doors: dict[str, int] = {}
         self.door_requests: list[tuple[str, int]] = []
@@ -80,9 +81,11 @@ class ScriptedFleet:
 
     def send_path(self, path: Path) -> None:
         self.sent.append(path)
+        self.commands.append(path.path_id)
 
     def stop(self) -> None:
         self.stops += 1
+        self.commands.append("stop")
 
     def follow_status(self) -> FollowStatus | None:
         # a live controller reports every cycle: its last state, stamped now

@@ -358,6 +358,32 @@ def test_where_the_turn_cannot_be_made_the_recovery_manoeuvres_onto_the_route_ah
     assert len(fleet.route_requests) == 2  # then the re-plan, from where it got to
 
 
+def test_the_failed_turn_does_not_stop_the_manoeuvre_onto_the_route_after_it() -> None:
+    # campaign camp21 b1.m03 and b11.m04: every "manoeuvre onto the route" failed after
+    # 4 s, "not converging", the chair never moved. The failed turn before it, invalidated
+    # by the selector on the next tick (py_trees clears finished children of a memory
+    # composite), stopped the chair again, and the stop cleared the controller's docking
+    # goal just sent. A behaviour that has finished stops nothing more.
+    nav, fleet = blocked_with_no_room_to_turn()
+    onto_sent = None
+    while nav.status.state == "running" and fleet.t < 60.0:
+        fleet.t += 0.5
+        step(nav, fleet)
+        last = fleet.sent[-1]
+        if last.reverse:
+            fleet.arrive()
+            step(nav, fleet)
+        elif last.path_id.startswith("Onto the route"):
+            onto_sent = len(fleet.commands) - 1 - fleet.commands[::-1].index(last.path_id)
+            for _ in range(4):  # working at it: the controller turns, odometry says so
+                fleet.t += 0.5
+                fleet.turning = 0.3
+                step(nav, fleet)
+            break
+    assert onto_sent is not None, fleet.events
+    assert "stop" not in fleet.commands[onto_sent:], fleet.commands
+
+
 def test_the_manoeuvre_onto_a_doors_approach_pose_takes_its_heading() -> None:
     # campaign b8.m03: blocked short of a door at the end of a corridor, the leg's last
     # piece came in at -130 deg (no room for a run-in); the manoeuvre onto the route aimed
