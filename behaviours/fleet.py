@@ -134,6 +134,15 @@ class FleetBehaviour(py_trees.behaviour.Behaviour):
         self.bb.failure = f"{self.name}: {reason}"
         return Status.FAILURE
 
+    def stop_if_driving(self, new_status: Status) -> None:
+        """Stop the chair from ``terminate`` when this behaviour fails or is interrupted
+        while running, not when a behaviour that already ended is invalidated later
+        (py_trees' memory composites clear finished children on a later tick, when the
+        next behaviour may already have sent the controller its own path)."""
+        ended = self.status in (Status.SUCCESS, Status.FAILURE) and new_status == Status.INVALID
+        if new_status in (Status.INVALID, Status.FAILURE) and not ended and self.fleet is not None:
+            self.fleet.stop()
+
 
 class OpenInScans:
     """Counts consecutive new scans in which the LiDAR saw a doorway open.

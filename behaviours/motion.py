@@ -227,8 +227,7 @@ class DockAt(FleetBehaviour):
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        if new_status in (Status.INVALID, Status.FAILURE) and self.fleet is not None:
-            self.fleet.stop()
+        self.stop_if_driving(new_status)
 
 
 class DriveThrough(FollowPath):

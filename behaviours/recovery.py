@@ -76,8 +76,7 @@ class BackUp(FleetBehaviour):
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        if new_status in (Status.INVALID, Status.FAILURE) and self.fleet is not None:
-            self.fleet.stop()
+        self.stop_if_driving(new_status)
 
 
 class TurnToward(FleetBehaviour):
@@ -130,8 +129,7 @@ class TurnToward(FleetBehaviour):
         return status
 
     def terminate(self, new_status: Status) -> None:
-        if new_status in (Status.INVALID, Status.FAILURE) and self.fleet is not None:
-            self.fleet.stop()
+        self.stop_if_driving(new_status)
 
 
 class OntoRoute(DockAt):
