@@ -134,6 +134,7 @@ class Docker:
         self._target: tuple[float, float, float] | None = None  # the goal behind a manoeuvre
         self._via: list[tuple[float, float, float]] = []
         self._planned = False
+        self.plan_note = ""  # what the last manoeuvre search found, for the node's log
         self._cramped = False  # a turn the short way would sweep into a point
         self._still_s = 0.0  # commanded to move and not moving, since _still_at
         self._still_at: tuple[float, float, float] | None = None
@@ -209,8 +210,17 @@ class Docker:
             if poses is not None:
                 break
         if poses is None:
+            self.plan_note = (
+                f"no manoeuvre from ({x:.2f}, {y:.2f}, {math.degrees(theta):.0f} deg) to "
+                f"({goal[0]:.2f}, {goal[1]:.2f}, {math.degrees(goal[2]):.0f} deg) in the room "
+                f"{len(pts)} points show"
+            )
             return
         self._via = [p for p in poses[:-1] if math.hypot(p[0] - x, p[1] - y) > 0 or p[2] != theta]
+        self.plan_note = (
+            f"manoeuvre from ({x:.2f}, {y:.2f}, {math.degrees(theta):.0f} deg): "
+            f"{len(self._via)} poses, margin {margin:.3f} m"
+        )
         if self._via:
             self._aim(*self._via.pop(0), VIA_TOLERANCE_M, VIA_HEADING_RAD)
 

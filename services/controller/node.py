@@ -47,6 +47,7 @@ def main(argv: list[str] | None = None) -> None:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
         tracker = Tracker(cc, cfg.robot, site)
+        noted = [""]  # the docker's last manoeuvre note, logged once when it changes
         latest: dict[str, object] = {}
 
         def on_pose(msg: PoseEstimate) -> None:
@@ -95,6 +96,9 @@ def main(argv: list[str] | None = None) -> None:
                     fresh,
                     1.0 / cc.rate_hz,
                 )
+                if tracker.docker.plan_note != noted[0]:
+                    noted[0] = tracker.docker.plan_note
+                    svc.log.info("%s: %s", tracker.path_id, noted[0])
                 cmd_v, cmd_w, state = guard(
                     cmd.v,
                     cmd.w,
