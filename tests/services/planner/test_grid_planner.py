@@ -91,3 +91,25 @@ def test_a_start_in_a_closed_doorway_plans_out_on_its_own_side(planner, side: in
     plan = planner.planner.plan(start, goal, "1", [door])
     assert np.allclose(plan.waypoints[-1], goal)
     assert (np.sign(plan.waypoints[:, 0] - 6.2) == side).all()  # never across the plane
+
+
+def test_a_start_within_the_inflation_of_a_wall_plans_out_of_it(planner) -> None:
+    """Camp21 b2.m00: the safety checks held the chair 0.25 m from a wall, the recovery's
+    manoeuvre could not move it, and the re-plan from where it stood was refused,
+    "START_OCCUPIED: start ... within 0.38 m of" a wall: the mission ended there. The
+    chair stands there; the path leaves along the shortest free line to where the
+    inflated map is free, then goes on as usual. A start inside the wall itself is
+    still refused."""
+    start = (2.0, 0.45)  # 0.25 m from the wall's face at y = 0.2 (inflation: 0.375)
+    plan = planner.planner.plan(start, (10.5, 2.7), "1")
+    wp = plan.waypoints
+    assert np.allclose(wp[0], start) and np.allclose(wp[-1], (10.5, 2.7))
+    fg = planner.planner._floors["1"]
+    cells = np.array([fg.grid.to_cell(x, y) for x, y in densify(wp, 0.02)])
+    inflated = fg.lethal[cells[:, 0], cells[:, 1]]
+    assert inflated[0] and not inflated[-1]
+    out = int(np.argmin(inflated))  # the first point clear of the inflation
+    assert np.linalg.norm(densify(wp, 0.02)[out] - start) < 0.2  # out by the short way
+    assert not inflated[out:].any()  # and never back in
+    with pytest.raises(errors.StartOccupied):
+        planner.planner.plan((2.0, 0.1), (10.5, 2.7), "1")  # in the wall itself
