@@ -41,6 +41,7 @@ class _FloorGrid:
     lethal: np.ndarray
     cost: np.ndarray
     landmarks: Landmarks | None
+    occupied: np.ndarray  # the map's walls (and open leaves), not inflated
 
 
 def inflation_radius(robot: RobotConfig, cfg: PlannerConfig) -> float:
@@ -62,7 +63,7 @@ class Planner:
             occ = with_open_leaves(floor.map.occupied(cfg.unknown_is_occupied), site, name)
             lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)
             lm = Landmarks(lethal, cfg.landmarks) if cfg.landmarks and (~lethal).any() else None
-            self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm)
+            self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm, occ)
 
     def resolve_place(self, place: str) -> tuple[float, float, float, str]:
         """(x, y, theta, floor) of a named place; UnknownPlace if the site has none so called."""
@@ -103,6 +104,8 @@ class Planner:
     ) -> Plan:
         """A path from ``start`` to ``goal`` (x, y) on ``floor`` ("" = the site's first floor).
 
+        A start within the inflation of a wall (not in it: where the chair stands) leaves
+        it first by the shortest straight line that crosses no wall.
         ``closed`` lists segments (door openings) the path must not cross (a band
         ``CLOSED_BAND_M`` each side, thinner where the start or the goal stands in it: a
         recovery can leave the chair in a doorway); ``points`` are
@@ -114,8 +117,12 @@ class Planner:
         """
         floor = self.floor_name(floor)
         fg = self._floors[floor]
-        s = self._cell(fg, start, "start", errors.StartOccupied)
+        s = self._cell(fg, start, "start", errors.StartOccupied, fg.occupied)
         g = self._cell(fg, goal, "goal", errors.GoalOccupied)
+        lead: list[tuple[float, float]] = []  # a start in the inflation: the way out of it
+        if fg.lethal[s]:
+            s = self._way_out(fg, s, start)
+            lead, start = [start], tuple(float(v) for v in fg.grid.to_world(np.array([s]))[0])
         lethal = fg.lethal
         if closed or len(points):
             lethal = lethal.copy()
@@ -136,6 +143,8 @@ class Planner:
                 heading = np.array([math.cos(arrive_heading), math.sin(arrive_heading)])
                 if last is not None and float(last @ heading) >= -0.4 * np.linalg.norm(last):
                     pts = np.vstack([via, [goal]])  # a turn of at most ~115 deg into it
+        if lead:
+            pts = np.vstack([lead, pts])
         length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
         spacing = max(self.cfg.waypoint_spacing_m, length / self.cfg.max_waypoints)
         waypoints = densify(pts, spacing)
@@ -163,19 +172,46 @@ class Planner:
         pts[0], pts[-1] = start, goal
         return pts
 
+    def _way_out(
+        self, fg: _FloorGrid, s: tuple[int, int], start: tuple[float, float]
+    ) -> tuple[int, int]:
+        """The nearest cell clear of the inflation within ``self.radius`` plus two cells of
+        a start inside it, on a straight line that crosses no wall (the chair stands there:
+        a recovery or the safety checks left it nearer a wall than the inflation allows);
+        StartOccupied if there is none."""
+        res = fg.grid.resolution
+        k = int(math.ceil(self.radius / res)) + 2
+        r0, c0 = max(s[0] - k, 0), max(s[1] - k, 0)
+        window = fg.lethal[r0 : s[0] + k + 1, c0 : s[1] + k + 1]
+        rows, cols = np.nonzero(~window)
+        cells = np.column_stack((rows + r0, cols + c0))
+        dist = np.hypot(cells[:, 0] - s[0], cells[:, 1] - s[1])
+        here = np.array(s)
+        for i in np.argsort(dist, kind="stable"):
+            if dist[i] <= k and line_is_free(fg.occupied, here, cells[i]):
+                return int(cells[i, 0]), int(cells[i, 1])
+        raise errors.StartOccupied(
+            f"start {_xy(start)} is within {self.radius:.2f} m of a wall with no way out"
+        )
+
     def _cell(
         self,
         fg: _FloorGrid,
         xy: tuple[float, float],
         what: str,
         blocked_error: type[errors.PlanError],
+        blocked: np.ndarray | None = None,
     ) -> tuple[int, int]:
+        """The cell of ``xy``: a typed error if it is not finite, off the map or in
+        ``blocked`` (default: the inflated map)."""
         if not all(math.isfinite(v) for v in xy):
             raise errors.OutsideMap(f"{what} {xy} is not a finite point")
         r, c = fg.grid.to_cell(*xy)
         if not fg.grid.contains(r, c):
             raise errors.OutsideMap(f"{what} ({xy[0]:.2f}, {xy[1]:.2f}) is outside the map")
-        if fg.lethal[r, c]:
+        if blocked is not None and blocked[r, c]:
+            raise blocked_error(f"{what} ({xy[0]:.2f}, {xy[1]:.2f}) is inside a wall")
+        if blocked is None and fg.lethal[r, c]:
             raise blocked_error(
                 f"{what} ({xy[0]:.2f}, {xy[1]:.2f}) is inside a wall or within "
                 f"{self.radius:.2f} m of one"
