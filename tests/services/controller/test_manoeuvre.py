@@ -144,3 +144,26 @@ def test_a_goal_just_inside_the_margin_ahead_is_reached_on_its_line() -> None:
     end = poses[-1]
     assert abs(end[0] - goal[0]) < RES, poses  # on the door's line (x, across -y)
     assert abs(end[1] - goal[1]) <= 0.15 and abs(wrap_angle(end[2] - goal[2])) < 1e-6
+
+
+def test_a_start_inside_the_margin_is_left_by_a_straight_drive() -> None:
+    """Camp21 b2.m00: through a door into a large room, the chair turned towards its goal
+    until the safety checks held it, its rear corner 7 cm from the wall behind on its left
+    (inside the search's grown margin). Every move from there was refused, so no
+    manoeuvre was found three times and the mission failed, with the room wide open
+    ahead. Straight drives out of a start that does not fit are allowed, a few steps,
+    until the poses fit again; then the search goes on as usual."""
+    occ = np.zeros((80, 80), dtype=bool)
+    occ[:, :10] = True  # a wall: x < -1.5 (the room is x in [-1.5, 2.5], y in [-2, 2])
+    origin = (-2.0, -2.0)
+    room = Room(occ, RES, origin, BODY)
+    th = math.radians(62)
+    # the rear-left corner (0.35 back, 0.325 aside) 4 cm from the wall's face
+    corner_x = -0.35 * math.cos(th) - 0.325 * math.sin(th)
+    start = (-1.5 + 0.04 - corner_x, 0.0, th)
+    assert not room.fits(*start[:2], round(th / (2 * math.pi / 72)))
+    poses = plan_manoeuvre(room, start, (start[0], start[1], math.radians(3)))
+    assert poses is not None
+    first = next(p for p in poses if math.hypot(p[0] - start[0], p[1] - start[1]) > 1e-9)
+    assert abs(wrap_angle(first[2] - th)) < math.radians(5)  # out straight, not turned
+    assert abs(wrap_angle(poses[-1][2] - math.radians(3))) < 1e-6
