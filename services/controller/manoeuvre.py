@@ -28,6 +28,7 @@ from scipy.ndimage import binary_dilation
 from shared.geometry import wrap_angle
 
 HEADINGS = 72  # heading steps in a full turn (5 degrees each)
+ESCAPE_STEPS = 8  # a start that does not fit is left by at most this many straight steps
 TURN, FORWARD, BACK = 0, 1, 2
 
 
@@ -183,7 +184,9 @@ def plan_manoeuvre(
     (its heading through it) within ``costs.goal_slack_m`` that fits, a little short of a
     door or beyond it, so docking ends on the door's centre line; where none does, any
     pose within ``costs.goal_slack_m`` and one heading step of it ends the search. A start
-    that does not fit (the safety checks hold the chair there) is left by moves that do.
+    that does not fit (the safety checks hold the chair there, a corner inside the margin)
+    is left by up to ``ESCAPE_STEPS`` straight steps forwards or back that need not fit
+    either, then by moves that do.
     None if no way is found within ``costs.max_expansions``."""
     costs = costs or ManoeuvreCosts()
     k0, kg = heading_step(start[2]), heading_step(goal[2])
@@ -210,6 +213,7 @@ def plan_manoeuvre(
     node_of: dict[tuple, tuple] = {}
     key0 = (*room.cell(start[0], start[1]), k0, TURN)
     best[key0], parent[key0], node_of[key0] = 0.0, None, first
+    escape = {key0: 0 if room.fits(start[0], start[1], k0) else 1}  # steps out, 0: fits
     queue = [(heuristic(start[0], start[1]), 0.0, key0)]
     expanded = 0
     goal_turns: dict[int, bool] = {}
@@ -240,13 +244,16 @@ def plan_manoeuvre(
                     step * factor,
                 )
             )
+        out = escape.get(key, 0)
         for nx, ny, nk, nmode, cost in moves:
-            if not room.fits(nx, ny, nk):
-                continue
+            fits = room.fits(nx, ny, nk)
+            if not fits and (not out or nmode == TURN or out >= ESCAPE_STEPS):
+                continue  # only a start that does not fit is left by straight steps
             ng = g + cost + (costs.switch_m if nmode != mode and key != key0 else 0.0)
             nkey = (*room.cell(nx, ny), nk, nmode)
             if ng < best.get(nkey, math.inf):
                 best[nkey], parent[nkey], node_of[nkey] = ng, key, (nx, ny, nk, nmode)
+                escape[nkey] = 0 if fits else out + 1
                 heapq.heappush(queue, (ng + heuristic(nx, ny), ng, nkey))
     return None
 
