@@ -73,6 +73,7 @@ VIA_TOLERANCE_M = 0.03  # how near each pose of a manoeuvre is reached
 VIA_HEADING_RAD = math.radians(3)
 ROOM_CELL_M = 0.05  # the grid a manoeuvre is planned on
 ROOM_REACH_M = 1.5  # how far round the pose and the goal the room is taken from the points
+ENDS_ON_M = 0.05  # a manoeuvre ending this near the goal's line reaches it (one cell)
 PLAN_SLACK_M = 0.03  # a manoeuvre keeps this much more than the margin: poses are reached
 # within VIA_TOLERANCE_M, and the safety checks must never hold one of its turns
 SIDESTEP_RAD = math.radians(20)  # a sidestep backs up at most this far off the goal heading
@@ -202,13 +203,18 @@ class Docker:
         occupied = np.zeros((shape[1], shape[0]), dtype=bool)
         occupied[cells[inside, 1], cells[inside, 0]] = True
         origin = (float(lo[0]), float(lo[1]))
-        poses = None
-        # with slack first; a chair held by the safety checks may stand nearer than that
+        poses, margin, short = None, 0.0, None
+        # with slack first; a chair held by the safety checks may stand nearer than that.
+        # A search whose goal does not fit ends anywhere within its slack, beside the goal:
+        # a smaller margin that ends on the goal is better (kept otherwise as a fallback)
         for margin in (self.margin_m + PLAN_SLACK_M, self.margin_m, self.margin_m / 2):
             body = ManoeuvreBody(fp.front, fp.rear, fp.width, margin)
             poses = plan_manoeuvre(Room(occupied, ROOM_CELL_M, origin, body), (x, y, theta), goal)
-            if poses is not None:
+            if poses is not None and _ends_on(poses[-1], goal):
                 break
+            short = short or (None if poses is None else (poses, margin))
+        else:
+            poses, margin = short or (None, 0.0)
         if poses is None:
             self.plan_note = (
                 f"no manoeuvre from ({x:.2f}, {y:.2f}, {math.degrees(theta):.0f} deg) to "
@@ -480,3 +486,10 @@ class Docker:
 
     def _speed(self, remaining: float) -> float:
         return min(self._cap, max(MIN_SPEED, self.limits.speed_gain * remaining))
+
+
+def _ends_on(end: tuple[float, float, float], goal: tuple[float, float, float]) -> bool:
+    """True if a manoeuvre ending at ``end`` leaves at most ``ENDS_ON_M`` across the goal's
+    heading (what is left along it, the final stage drives out)."""
+    c, s = math.cos(goal[2]), math.sin(goal[2])
+    return abs(-(end[0] - goal[0]) * s + (end[1] - goal[1]) * c) <= ENDS_ON_M
