@@ -206,8 +206,10 @@ class Docker:
         poses, margin, short = None, 0.0, None
         # with slack first; a chair held by the safety checks may stand nearer than that.
         # A search whose goal does not fit ends anywhere within its slack, beside the goal:
-        # a smaller margin that ends on the goal is better (kept otherwise as a fallback)
-        for margin in (self.margin_m + PLAN_SLACK_M, self.margin_m, self.margin_m / 2):
+        # a smaller margin that ends on the goal is better (kept otherwise as a fallback),
+        # down to none: the grid is conservative by up to a cell (a point anywhere in it,
+        # scattered by range noise), and the controller's guard keeps its own margin
+        for margin in (self.margin_m + PLAN_SLACK_M, self.margin_m, self.margin_m / 2, 0.0):
             body = ManoeuvreBody(fp.front, fp.rear, fp.width, margin)
             poses = plan_manoeuvre(Room(occupied, ROOM_CELL_M, origin, body), (x, y, theta), goal)
             if poses is not None and _ends_on(poses[-1], goal):
