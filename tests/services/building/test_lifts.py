@@ -332,3 +332,24 @@ def test_any_request_sequence_keeps_the_lift_consistent(fault, events) -> None:
             assert s.door_state == LiftDoor.CLOSED and lifts[0].door_opening == 0.0
         if not s.session_id:
             assert s.current_mode == MODE_HUMAN
+
+
+def test_a_session_whose_holder_goes_silent_expires_after_its_lease() -> None:
+    """Issue 12: a lift session is a lease. A holder that stops asking (its navigator died,
+    its mission ended without END_SESSION) lets the lift go ``session_lease_s`` after its
+    last request; a holder that keeps asking keeps it."""
+    lift = make(session_lease_s=30.0)
+    assert lift.request(0.0, ask("chair1", "2")) is None
+    for t in (10.0, 20.0, 29.0):  # renewed within the lease: still held
+        assert lift.request(t, ask("chair1", "2")) is None
+    assert "busy" in (lift.request(50.0, ask("chair2", "3")) or "")
+    lift.update(58.5)
+    assert lift.state(58.5).session_id == "chair1"  # 29.5 s since its last request
+    lift.update(59.5)
+    assert lift.state(59.5).session_id == ""  # expired: free for the next
+    assert lift.request(61.0, ask("chair2", "3")) is None
+    assert lift.state(61.0).session_id == "chair2"
+    held = make()  # no lease given: a session is held until it ends (as before)
+    held.request(0.0, ask("chair1", "2"))
+    held.update(1000.0)
+    assert held.state(1000.0).session_id == "chair1"
