@@ -427,6 +427,9 @@ class BuildingConfig:
     state_rate_hz: float = field(default=1.0, metadata=check(_positive))
     hold_open_s: float = field(default=5.0, metadata=check(_positive))
     sensor_range_m: float = field(default=1.5, metadata=check(_positive))
+    # a lift session is a lease: it ends this long after its holder's last request (a
+    # navigator renews it while it holds the lift; a dead one lets the lift go)
+    lift_session_lease_s: float = field(default=30.0, metadata=check(_positive))
     manual_doors_open: bool = True  # a manual door with no schedule and no behaviour: open
     doors: dict[str, DoorBehaviour] = field(default_factory=dict)
     lifts: dict[str, LiftBehaviour] = field(default_factory=dict)

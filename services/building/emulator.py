@@ -58,15 +58,22 @@ class Building:
             )
         self.door_floor = {d.id: d.floor for d in site.doors}
         self.lifts: dict[str, LiftSim] = {}
-        self._busy: dict[str, float] = {}  # lift -> when the other user lets it go
+        self._busy: dict[str, tuple[float, str]] = {}  # lift -> (when the other user lets
+        # it go, the floor it holds the car at)
         for lift in getattr(site, "elevators", []):
             b = cfg.lifts.get(lift.id, LiftBehaviour())
             floors = {f: site.floor(f).elevation for f in lift.floors}
             start = b.start_floor or lift.floors[0]
-            self.lifts[lift.id] = LiftSim(lift.id, floors, start, fault=b.fault or None)
+            self.lifts[lift.id] = LiftSim(
+                lift.id,
+                floors,
+                start,
+                fault=b.fault or None,
+                session_lease_s=cfg.lift_session_lease_s,
+            )
             if b.busy_until_s > 0:  # someone else holds it, doors shut, from the start
                 self.lifts[lift.id].request(0.0, self._other(lift.id, start))
-                self._busy[lift.id] = b.busy_until_s
+                self._busy[lift.id] = (b.busy_until_s, start)
 
     def request_door(self, now: float, req: DoorRequest) -> bool:
         """Pass a door request on; False if no such door."""
@@ -100,10 +107,12 @@ class Building:
         return LiftRequest(0.0, lift_id, OTHER_SESSION, kind, floor, LiftDoor.CLOSED)
 
     def update(self, now: float) -> None:
-        for name, until in list(self._busy.items()):
+        for name, (until, floor) in list(self._busy.items()):
             if now >= until:
                 self.lifts[name].request(now, self._other(name, "", end=True))
                 del self._busy[name]
+            else:  # the other user is alive: it keeps its lease
+                self.lifts[name].request(now, self._other(name, floor))
         for door in self.doors.values():
             door.update(now)
         for lift in self.lifts.values():

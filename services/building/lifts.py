@@ -8,7 +8,8 @@ depend on how often ``update`` is called.
 
 Open-RMF semantics (``rmf_lift_msgs``): one session at a time. An AGV_MODE or HUMAN_MODE
 request with a ``session_id`` opens (or keeps) the session and sets the destination floor;
-requests from another session while one is held are refused; END_SESSION releases it. The
+requests from another session while one is held are refused; END_SESSION releases it, and
+so does the lease running out (``session_lease_s`` after the holder's last request). The
 request's ``door_state`` OPEN asks for the doors to open, and stay open, at the destination.
 Doors always close completely before the car moves; the car follows a trapezoidal speed
 profile (``car_accel_m_s2`` up to ``car_speed_m_s``, triangular on short trips).
@@ -133,6 +134,7 @@ class LiftSim:
         start_floor: str,
         timing: LiftTiming | None = None,
         fault: str | None = None,
+        session_lease_s: float | None = None,
     ) -> None:
         """Build a lift at rest at ``start_floor`` with its doors closed.
 
@@ -142,6 +144,8 @@ class LiftSim:
             start_floor: where the car starts.
             timing: speeds and hold time; defaults to :class:`LiftTiming`.
             fault: ``None`` or one of :class:`LiftFault`.
+            session_lease_s: a session ends this long after its holder's last accepted
+                request, as if it had sent END_SESSION (None: held until it ends).
 
         Raises:
             ValueError: no floors, unknown start floor or fault, non-positive speeds.
@@ -170,6 +174,9 @@ class LiftSim:
         self._destination = start_floor
         self._door = 0.0
         self._session = ""
+        self._session_at = 0.0  # when the holder last asked
+        self._lease = session_lease_s
+        self.expired: list[tuple[float, str]] = []  # (when, session) of leases run out
         self._session_mode = MODE_HUMAN
         self._wanted_door = LiftDoor.CLOSED
         self._timed_open = False
@@ -200,11 +207,7 @@ class LiftSim:
                 return None
             if req.session_id != self._session:
                 return f"lift {self.name} is held by session {self._session!r}"
-            doors_opening = self._door_goal() == 1.0 and self._trip is None
-            self._session = ""
-            self._wanted_door = LiftDoor.CLOSED
-            if doors_opening:
-                self._start_timed_open()
+            self._end_session()
             return None
         if req.request_type not in (LiftRequestType.AGV_MODE, LiftRequestType.HUMAN_MODE):
             return f"unknown request type {req.request_type}"
@@ -221,7 +224,7 @@ class LiftSim:
             )
         if req.door_state not in (LiftDoor.OPEN, LiftDoor.CLOSED):
             return f"door_state must be OPEN or CLOSED, got {req.door_state}"
-        self._session = req.session_id
+        self._session, self._session_at = req.session_id, self._t
         self._session_mode = (
             MODE_AGV if req.request_type == LiftRequestType.AGV_MODE else MODE_HUMAN
         )
@@ -292,6 +295,8 @@ class LiftSim:
             events.append((self._t + abs(goal - self._door) / self._door_rate, "door"))
         if self._hold_deadline is not None:
             events.append((self._hold_deadline, "hold"))
+        if self._session and self._lease is not None:
+            events.append((self._session_at + self._lease, "lease"))
         return min(events) if events else None
 
     def _fire(self, kind: str) -> None:
@@ -305,6 +310,9 @@ class LiftSim:
             self._trip = None
             if self._rest_floor == self._destination and not self._session:
                 self._start_timed_open()
+        elif kind == "lease":
+            self.expired.append((self._t, self._session))
+            self._end_session()
         else:
             self._timed_open = False
             self._hold_deadline = None
@@ -319,6 +327,15 @@ class LiftSim:
             elif self._door > goal:
                 self._door = max(goal, self._door - step)
         self._t = t
+
+    def _end_session(self) -> None:
+        """Let the session go (END_SESSION, or its lease ran out): open doors close
+        ``door_hold_s`` later, the car stays."""
+        doors_opening = self._door_goal() == 1.0 and self._trip is None
+        self._session = ""
+        self._wanted_door = LiftDoor.CLOSED
+        if doors_opening:
+            self._start_timed_open()
 
     def _start_timed_open(self) -> None:
         """Open the doors (if not open yet) and close them ``door_hold_s`` after fully open."""

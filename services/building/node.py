@@ -59,6 +59,16 @@ def main(argv: list[str] | None = None) -> None:
         def step(c: Clock) -> None:
             now = clock["now"] = c.stamp
             building.update(now)
+            for lift in building.lifts.values():
+                while lift.expired:
+                    at, session = lift.expired.pop(0)
+                    svc.log.warning(
+                        "lift %s: session %r let go at %.1f s, no request for %g s (its lease)",
+                        lift.name,
+                        session,
+                        at,
+                        cfg.building.lift_session_lease_s,
+                    )
             for state in building.changed_states(now):
                 publish(state)
             if now - clock["last_all"] >= 1.0 / cfg.building.state_rate_hz:
