@@ -399,3 +399,47 @@ def test_the_manoeuvre_onto_a_doors_approach_pose_takes_its_heading() -> None:
     fleet.x, fleet.y = 0.5, 0.25
     floor, pose = nav._onto()
     assert pose == (1.0, 0.0, 0.3)
+
+
+def lift_mission(**nav) -> tuple[Navigator, ScriptedFleet]:
+    """A mission whose route rides lift_a from floor 1 to 2, run until the car is called
+    (the first leg done, the lift requested for floor 1)."""
+    from tests.behaviours.test_mission_tree import LIFT_ROUTE
+
+    fleet = ScriptedFleet(LIFT_ROUTE)
+    nav, _out = navigator(fleet, **nav)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.arrive()
+    step(nav, fleet)
+    assert fleet.lift_requests == [("lift_a", "1")], fleet.lift_requests
+    return nav, fleet
+
+
+def test_a_mission_that_ends_while_it_holds_a_lift_releases_it() -> None:
+    """Issue 12: a lift session was never released when a mission failed or was
+    cancelled, so the lift stayed busy for the next mission. A mission that ends while
+    holding a lift ends its session."""
+    nav, fleet = lift_mission()
+    nav.on_goal(NavGoal(1.0, "", cancel=True))
+    assert fleet.released == ["lift_a"]
+    nav, fleet = lift_mission(lift_timeout_s=5.0, max_replans=0)
+    while nav.status.state == "running" and fleet.t < 60.0:  # the car never comes
+        fleet.t += 0.5
+        fleet.arrive()
+        step(nav, fleet)
+    assert nav.status.state == "failed", nav.status
+    assert fleet.released == ["lift_a"]
+
+
+def test_while_it_holds_a_lift_the_navigator_renews_its_lease() -> None:
+    """The building lets a silent holder's session go after its lease
+    (building.lift_session_lease_s): the navigator asks again, for the floor it last
+    asked, every navigator.lift_lease_renew_s while the mission holds the lift."""
+    nav, fleet = lift_mission(lift_lease_renew_s=5.0)
+    fleet.arrive()  # corrected before the lift: waiting for the car
+    start = fleet.t
+    while fleet.t < start + 12.0:
+        fleet.t += 0.5
+        step(nav, fleet)
+    assert fleet.lift_requests == [("lift_a", "1")] * 3, fleet.lift_requests
