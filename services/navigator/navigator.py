@@ -28,6 +28,7 @@ from behaviours.mission import EntryParams, create_plan_tree, create_route_tree,
 from behaviours.motion import FollowPath
 from behaviours.recovery import create_recovery_tree
 from behaviours.snapshot import signature, snapshot
+from services.navigator.lift_leases import LiftLeases
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
     TERMINAL_STATES,
@@ -94,6 +95,7 @@ class Navigator:
         self.cfg = cfg
         self.entry = entry
         self.fleet = fleet
+        self.leases = LiftLeases(fleet, cfg.lift_lease_renew_s)  # the trees' fleet
         self.out = out
         self.log = log or logging.getLogger(f"wheelnav.{NAME}")
         self.tree: py_trees.trees.BehaviourTree | None = None
@@ -143,6 +145,7 @@ class Navigator:
         # until the new route's first path replaces it (a plan that fails stops the chair)
         self.bb.goal, self.bb.place, self.bb.failure = msg.goal, msg.place, ""
         self.bb.phase, self.bb.blocked, self.bb.recover = Phase.IDLE, "", ""
+        self._release_lifts()  # a mission replaced: its session ends before the next
         self.fleet.new_mission(msg.goal_id)
         self.replans = 0
         self.recoveries = 0
@@ -156,6 +159,7 @@ class Navigator:
     def step(self, now: float) -> None:
         """Tick the running tree once (``now``: the fleet clock), then publish the status."""
         if self.running:
+            self.leases.renew(now)
             self.tree.tick()
             self._stream_tree(now)
             result = self.tree.root.status
@@ -187,7 +191,7 @@ class Navigator:
         self.tree = py_trees.trees.BehaviourTree(root)
         # setup only stores the fleet handle (never blocks); a finite timeout would need
         # signals, which only work on the main thread, and goals arrive on Zenoh threads
-        self.tree.setup(timeout=py_trees.common.Duration.INFINITE, fleet=self.fleet)
+        self.tree.setup(timeout=py_trees.common.Duration.INFINITE, fleet=self.leases)
         self._steps_of = route_steps(root)
 
     def _plan(self) -> None:
@@ -370,6 +374,12 @@ class Navigator:
         )
         if state in TERMINAL_STATES:
             self.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
+            self._release_lifts()
+
+    def _release_lifts(self) -> None:
+        """End the lift sessions the mission still holds (it ended, or was replaced)."""
+        for lift_id in self.leases.release_all():
+            self.fleet.event("lift", f"released {lift_id}: the mission ended holding it")
 
     def _running_step(self) -> tuple[int, int, py_trees.behaviour.Behaviour | None]:
         """(index of the route step running, number of steps, the step): a step is a leg,
