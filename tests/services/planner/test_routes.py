@@ -61,6 +61,20 @@ def test_blocked_door_means_no_route_until_freed(routes: RoutePlanner) -> None:
         routes.set_door_blocked("door_zz", True)
 
 
+def test_a_door_marked_unavailable_is_tried_again_after_the_retry_time() -> None:
+    """Issue 12: a door marked blocked stayed blocked for ever, for every later mission.
+    A mark is dropped ``planner.unavailable_retry_s`` after it was made (the clock: the
+    requests' and updates' stamps, the navigator's); within that time it holds."""
+    cfg = PlannerConfig(unavailable_retry_s=300.0)
+    routes = RoutePlanner(Planner(SITE, RobotConfig(), cfg), SITE, cfg)
+    routes.set_door_blocked("door_ab", True, stamp=10.0)
+    with pytest.raises(errors.NoPath, match="blocked: door_ab"):
+        routes.request((2.0, 2.7), "1", None, "", "room_b", stamp=309.0)
+    assert routes.expire(309.0) == []
+    assert routes.request((2.0, 2.7), "1", None, "", "room_b", stamp=310.0).checkpoints
+    assert "door_ab" not in routes.blocked_doors
+
+
 def test_same_room_route_has_no_checkpoint(routes: RoutePlanner) -> None:
     route = routes.request((1.5, 1.5), "1", (4.5, 4.0), "1")
     assert route.checkpoints == [] and len(route.legs) == 1
