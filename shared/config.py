@@ -171,6 +171,9 @@ class PlannerConfig:
     door_slow_radius_m: float = field(default=1.5, metadata=check(_non_negative))
     elevator_standoff_m: float = field(default=1.5, metadata=check(_positive))
     elevator_ride_cost_m: float = field(default=10.0, metadata=check(_non_negative))
+    # a door or lift marked unavailable (stuck, out of service) is tried again this long
+    # after the mark, by the clock of the navigator's requests
+    unavailable_retry_s: float = field(default=300.0, metadata=check(_positive))
     unknown_is_occupied: bool = True
 
 

@@ -381,6 +381,7 @@ class RouteRequest(Msg):
     place: str = ""
     avoid: list[str] = field(default_factory=list)
     blocked: list[Pose2D] = field(default_factory=list)
+    stamp: float = num(*STAMP, default=0.0)  # the asker's clock: unavailable marks expire
 
 
 @message("checkpoint", version=2)

@@ -210,6 +210,7 @@ class FleetState:
             place=place,
             avoid=list(self.avoided),
             blocked=[Pose2D(x, y, 0.0, floor) for x, y, floor in self.blocking],
+            stamp=self.now(),
         )
 
     def stop_path(self) -> Path:

@@ -80,6 +80,12 @@ def main(argv: list[str] | None = None) -> None:
         def on_route(req: m.RouteRequest) -> m.RouteReply:
             goal = (req.goal.x, req.goal.y) if req.goal is not None else None
             goal_floor = req.goal.floor if req.goal is not None else ""
+            for name in routes.expire(req.stamp):
+                svc.log.info(
+                    "%s is available again: marked unavailable %g s or more ago",
+                    name,
+                    cfg.planner.unavailable_retry_s,
+                )
             try:
                 route = routes.request(
                     (req.start.x, req.start.y),
@@ -105,7 +111,7 @@ def main(argv: list[str] | None = None) -> None:
 
         def on_update(msg: m.Availability) -> None:
             try:
-                routes.set_door_blocked(msg.name, not msg.available)
+                routes.set_door_blocked(msg.name, not msg.available, msg.stamp)
             except PlanError as exc:
                 svc.log.warning("availability update refused: %s", exc)
                 return

@@ -82,6 +82,7 @@ class RoutePlanner:
         self.cfg = cfg
         self.blocked_doors: set[str] = set()
         self.unavailable_lifts: set[str] = set()
+        self.marked_at: dict[str, float] = {}  # when each was marked unavailable (stamp)
         self._points: dict[str, list[tuple[float, float]]] = {}  # this request's obstacles
         self.rooms = {
             name: segment_rooms(
@@ -91,7 +92,9 @@ class RoutePlanner:
         }
         self.corridors = {name: corridor_rooms(rm) for name, rm in self.rooms.items()}
 
-    def set_door_blocked(self, door_id: str, blocked: bool) -> None:
+    def set_door_blocked(self, door_id: str, blocked: bool, stamp: float | None = None) -> None:
+        """Mark a door or lift unavailable (or available again); a mark with a ``stamp``
+        is dropped by :meth:`expire` ``unavailable_retry_s`` later."""
         if door_id not in {d.id for d in self.site.doors} | {e.id for e in self.site.elevators}:
             raise errors.BadRequest(f"no door or elevator called {door_id!r} in this site")
         target = (
@@ -100,6 +103,18 @@ class RoutePlanner:
             else self.blocked_doors
         )
         (target.add if blocked else target.discard)(door_id)
+        if blocked and stamp is not None:
+            self.marked_at[door_id] = stamp
+        else:
+            self.marked_at.pop(door_id, None)
+
+    def expire(self, now: float) -> list[str]:
+        """Drop the unavailable marks made ``cfg.unavailable_retry_s`` or more before
+        ``now`` (a door stuck then may have been fixed); the ids made available again."""
+        old = [i for i, at in self.marked_at.items() if now - at >= self.cfg.unavailable_retry_s]
+        for door_id in old:
+            self.set_door_blocked(door_id, False)
+        return old
 
     def request(
         self,
@@ -110,10 +125,14 @@ class RoutePlanner:
         place: str = "",
         avoid: list[str] = (),
         blocked: list[tuple[float, float, str]] = (),
+        stamp: float | None = None,
     ) -> Route:
         """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed),
         treating the doors and lifts in ``avoid`` as unavailable for this request and the
-        points in ``blocked`` (x, y, floor) as obstacles where a way round them exists."""
+        points in ``blocked`` (x, y, floor) as obstacles where a way round them exists;
+        with a ``stamp``, marks older than ``unavailable_retry_s`` are dropped first."""
+        if stamp is not None:
+            self.expire(stamp)
         if place:
             gx, gy, _theta, goal_floor = self.planner.resolve_place(place)
             goal = (gx, gy)
