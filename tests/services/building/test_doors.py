@@ -154,6 +154,26 @@ def test_powered_door_repeated_and_unknown_requests_are_harmless() -> None:
     assert sim.mode() == DoorMode.CLOSED
 
 
+def test_a_powered_door_session_whose_holder_goes_silent_expires_after_its_lease() -> None:
+    """Issue 12: door requests are leases. A requester that stops asking (its navigator
+    died mid-pass) lets the door close ``session_lease_s`` after its last OPEN; one that
+    keeps asking keeps it open; an obstruction still keeps a closing door open."""
+    sim = make("powered", session_lease_s=30.0)
+    sim.request(0.0, req("chair1", DoorMode.OPEN))
+    for t in (10.0, 20.0, 30.0):
+        sim.request(t, req("chair1", DoorMode.OPEN))
+    run(sim, 30.0, 59.5)
+    assert sim.mode() == DoorMode.OPEN and sim.sessions == {"chair1"}
+    trace = run(sim, 59.5, 70.0)
+    assert sim.sessions == set()  # 30 s after its last request
+    assert first(trace, DoorMode.MOVING) == pytest.approx(60.0, abs=DT)
+    assert sim.mode() == DoorMode.CLOSED
+    held = make("powered")  # no lease given: held until CLOSED (as before)
+    held.request(0.0, req("chair1", DoorMode.OPEN))
+    run(held, 0.0, 200.0, dt=1.0)
+    assert held.mode() == DoorMode.OPEN
+
+
 def test_powered_door_does_not_close_on_an_obstruction() -> None:
     sim = make("powered")
     sim.request(0.0, req("chair1", DoorMode.OPEN))
