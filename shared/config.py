@@ -436,6 +436,9 @@ class BuildingConfig:
     # a lift session is a lease: it ends this long after its holder's last request (a
     # navigator renews it while it holds the lift; a dead one lets the lift go)
     lift_session_lease_s: float = field(default=30.0, metadata=check(_positive))
+    # a powered door's open request is a lease too: the door closes (when its doorway is
+    # clear) this long after the requester's last OPEN
+    door_session_lease_s: float = field(default=30.0, metadata=check(_positive))
     manual_doors_open: bool = True  # a manual door with no schedule and no behaviour: open
     doors: dict[str, DoorBehaviour] = field(default_factory=dict)
     lifts: dict[str, LiftBehaviour] = field(default_factory=dict)

@@ -13,8 +13,9 @@ Three kinds of door (``shared.site.DOOR_TYPES``):
 * ``automatic``: opens while something moves in its sensor zone, closes ``hold_open_s``
   after the last motion. Requests are recorded but change nothing.
 * ``powered``: Open-RMF supervisor semantics. A ``DoorRequest`` OPEN adds its
-  ``requester_id`` to the door's sessions, CLOSED removes it; the door is open while any
-  session remains and closes when none does.
+  ``requester_id`` to the door's sessions, CLOSED removes it, and so does its lease running
+  out (``session_lease_s`` after its last OPEN); the door is open while any session remains
+  and closes when none does.
 
 Every kind stops closing when the doorway is obstructed and opens again (a motor's safety
 edge, or the person closing a manual door waiting for the doorway to clear).
@@ -103,6 +104,7 @@ class DoorSim:
         fault: str | None = None,
         schedule: Iterable[tuple[float, str]] = (),
         start_open: bool = False,
+        session_lease_s: float | None = None,
     ) -> None:
         """Build a door, closed (or fully open with ``start_open``) until it is told otherwise.
 
@@ -113,6 +115,8 @@ class DoorSim:
             fault: ``None`` or one of :class:`DoorFault`.
             schedule: manual doors only: ``[(time_s, "open" | "close"), ...]`` from the scenario.
             start_open: start fully open (capped by a fault) instead of closed.
+            session_lease_s: powered doors only: a requester's session ends this long
+                after its last OPEN, as if it had sent CLOSED (None: held until CLOSED).
 
         Raises:
             ValueError: unknown door type, motion, fault or schedule action; zero-width door.
@@ -147,7 +151,8 @@ class DoorSim:
         self._moving = False
         self._hold_until: float | None = None
         self._obstructed = False
-        self._sessions: set[str] = set()
+        self._sessions: dict[str, float] = {}  # requester -> when it last asked OPEN
+        self._lease = session_lease_s
         self._reported: int | None = None
 
     # ----------------------------------------------------------------------------------
@@ -167,9 +172,9 @@ class DoorSim:
         if self.door.type != "powered":
             return
         if req.requested_mode == DoorMode.OPEN:
-            self._sessions.add(req.requester_id)
+            self._sessions[req.requester_id] = self._t
         elif req.requested_mode == DoorMode.CLOSED:
-            self._sessions.discard(req.requester_id)
+            self._sessions.pop(req.requester_id, None)
 
     def set_presence(self, now: float, moving: bool) -> None:
         """Tell an automatic door whether something moves in its sensor zone now.
@@ -222,14 +227,20 @@ class DoorSim:
             return self._schedule[self._next_entry][0]
         if self.door.type == "automatic":
             return self._hold_until
+        if self._sessions and self._lease is not None:
+            return min(self._sessions.values()) + self._lease
         return None
 
     def _fire(self) -> None:
         if self.door.type == "manual":
             self._manual_open = self._schedule[self._next_entry][1] == "open"
             self._next_entry += 1
-        else:
+        elif self.door.type == "automatic":
             self._hold_until = None
+        else:  # powered: the sessions whose lease ran out end
+            self._sessions = {
+                k: at for k, at in self._sessions.items() if at + self._lease > self._t
+            }
 
     def _wanted_open(self) -> bool:
         if self._obstructed and self._opening > EPS:

@@ -55,6 +55,7 @@ class Building:
                 b.fault or None,
                 [(e.at_s, e.action) for e in b.schedule],
                 start_open,
+                cfg.door_session_lease_s,
             )
         self.door_floor = {d.id: d.floor for d in site.doors}
         self.lifts: dict[str, LiftSim] = {}
