@@ -443,3 +443,23 @@ def test_while_it_holds_a_lift_the_navigator_renews_its_lease() -> None:
         fleet.t += 0.5
         step(nav, fleet)
     assert fleet.lift_requests == [("lift_a", "1")] * 3, fleet.lift_requests
+
+
+def test_a_powered_door_held_open_is_renewed_and_released_when_the_mission_ends() -> None:
+    """Issue 12: door requests are leases too (building.door_session_lease_s). While the
+    mission waits at a powered door it asked open, it asks again every
+    navigator.lift_lease_renew_s; cancelled there, it asks the door closed."""
+    fleet = ScriptedFleet(route(door("powered")))
+    nav, _out = navigator(fleet, lift_lease_renew_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    through_the_door(nav, fleet)
+    opens = [r for r in fleet.door_requests if r == ("d1", DoorMode.OPEN)]
+    assert opens, fleet.door_requests
+    start, asked = fleet.t, len(fleet.door_requests)
+    while fleet.t < start + 12.0:  # the door does not open yet: the mission waits
+        fleet.t += 0.5
+        step(nav, fleet)
+    assert fleet.door_requests[asked:] == [("d1", DoorMode.OPEN)] * 2, fleet.door_requests
+    nav.on_goal(NavGoal(fleet.t, "", cancel=True))
+    assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED)
