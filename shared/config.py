@@ -361,9 +361,10 @@ class NavigatorConfig:
     follow_timeout_s: float = field(default=600.0, metadata=check(_positive))
     door_timeout_s: float = field(default=60.0, metadata=check(_positive))
     lift_timeout_s: float = field(default=120.0, metadata=check(_positive))
-    # while a mission holds a lift it asks again this often (the building's session is a
-    # lease, building.lift_session_lease_s); keep it well under that lease
-    lift_lease_renew_s: float = field(default=10.0, metadata=check(_positive))
+    # while a mission holds a lift or a powered door it asked open, it asks again this
+    # often (the building's sessions are leases, building.lift_session_lease_s and
+    # building.door_session_lease_s); keep it well under those leases
+    lease_renew_s: float = field(default=10.0, metadata=check(_positive))
     max_replans: int = field(default=3, metadata=check(_non_negative))
     safety_timeout_s: float = field(default=60.0, metadata=check(_positive))
     # recoveries: held (obstacle, blocked) this long, back up, turn in place, re-plan

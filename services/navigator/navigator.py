@@ -28,7 +28,7 @@ from behaviours.mission import EntryParams, create_plan_tree, create_route_tree,
 from behaviours.motion import FollowPath
 from behaviours.recovery import create_recovery_tree
 from behaviours.snapshot import signature, snapshot
-from services.navigator.lift_leases import LiftLeases
+from services.navigator.leases import Leases
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
     TERMINAL_STATES,
@@ -95,7 +95,7 @@ class Navigator:
         self.cfg = cfg
         self.entry = entry
         self.fleet = fleet
-        self.leases = LiftLeases(fleet, cfg.lift_lease_renew_s)  # the trees' fleet
+        self.leases = Leases(fleet, cfg.lease_renew_s)  # the trees' fleet
         self.out = out
         self.log = log or logging.getLogger(f"wheelnav.{NAME}")
         self.tree: py_trees.trees.BehaviourTree | None = None
@@ -145,7 +145,7 @@ class Navigator:
         # until the new route's first path replaces it (a plan that fails stops the chair)
         self.bb.goal, self.bb.place, self.bb.failure = msg.goal, msg.place, ""
         self.bb.phase, self.bb.blocked, self.bb.recover = Phase.IDLE, "", ""
-        self._release_lifts()  # a mission replaced: its session ends before the next
+        self._release_held()  # a mission replaced: its session ends before the next
         self.fleet.new_mission(msg.goal_id)
         self.replans = 0
         self.recoveries = 0
@@ -374,12 +374,13 @@ class Navigator:
         )
         if state in TERMINAL_STATES:
             self.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
-            self._release_lifts()
+            self._release_held()
 
-    def _release_lifts(self) -> None:
-        """End the lift sessions the mission still holds (it ended, or was replaced)."""
-        for lift_id in self.leases.release_all():
-            self.fleet.event("lift", f"released {lift_id}: the mission ended holding it")
+    def _release_held(self) -> None:
+        """End the lift sessions and door requests the mission still holds (it ended, or
+        was replaced)."""
+        for held in self.leases.release_all():
+            self.fleet.event("lease", f"released {held}: the mission ended holding it")
 
     def _running_step(self) -> tuple[int, int, py_trees.behaviour.Behaviour | None]:
         """(index of the route step running, number of steps, the step): a step is a leg,

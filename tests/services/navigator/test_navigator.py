@@ -435,8 +435,8 @@ def test_a_mission_that_ends_while_it_holds_a_lift_releases_it() -> None:
 def test_while_it_holds_a_lift_the_navigator_renews_its_lease() -> None:
     """The building lets a silent holder's session go after its lease
     (building.lift_session_lease_s): the navigator asks again, for the floor it last
-    asked, every navigator.lift_lease_renew_s while the mission holds the lift."""
-    nav, fleet = lift_mission(lift_lease_renew_s=5.0)
+    asked, every navigator.lease_renew_s while the mission holds the lift."""
+    nav, fleet = lift_mission(lease_renew_s=5.0)
     fleet.arrive()  # corrected before the lift: waiting for the car
     start = fleet.t
     while fleet.t < start + 12.0:
@@ -448,9 +448,9 @@ def test_while_it_holds_a_lift_the_navigator_renews_its_lease() -> None:
 def test_a_powered_door_held_open_is_renewed_and_released_when_the_mission_ends() -> None:
     """Issue 12: door requests are leases too (building.door_session_lease_s). While the
     mission waits at a powered door it asked open, it asks again every
-    navigator.lift_lease_renew_s; cancelled there, it asks the door closed."""
+    navigator.lease_renew_s; cancelled there, it asks the door closed."""
     fleet = ScriptedFleet(route(door("powered")))
-    nav, _out = navigator(fleet, lift_lease_renew_s=5.0)
+    nav, _out = navigator(fleet, lease_renew_s=5.0)
     nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
     step(nav, fleet)
     through_the_door(nav, fleet)
