@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
+from services.controller import manoeuvre
 from services.controller.command import Command
 from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import SamplingMPC
@@ -64,6 +65,7 @@ class Tracker:
         self.use_mpc = False
         self._precise = False
         self.stall = StallWatch(cfg.stall_s, cfg.stall_progress_m)
+        manoeuvre.warm_up()
         if cfg.mode == "mpc":
             try:
                 self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m)

@@ -167,3 +167,26 @@ def test_a_start_inside_the_margin_is_left_by_a_straight_drive() -> None:
     first = next(p for p in poses if math.hypot(p[0] - start[0], p[1] - start[1]) > 1e-9)
     assert abs(wrap_angle(first[2] - th)) < math.radians(5)  # out straight, not turned
     assert abs(wrap_angle(poses[-1][2] - math.radians(3))) < 1e-6
+
+
+def test_the_room_is_the_footprint_dilation_of_what_is_occupied() -> None:
+    """The room's free cells per heading, stamped from the occupied cells, are exactly
+    the binary dilation of the occupancy by each heading's footprint kernel (the
+    reference, 40 times slower on a campaign room)."""
+    from scipy.ndimage import binary_dilation
+
+    from services.controller.manoeuvre import HEADINGS, _footprint_kernel
+
+    rng = np.random.default_rng(7)
+    occ = rng.random((50, 70)) < 0.03
+    occ[20, :] = True
+    for margin in (0.0, 0.05):
+        body = ManoeuvreBody(FP.front, FP.rear, FP.width, margin)
+        room = Room(occ, RES, (0.0, 0.0), body)
+        grow = margin + RES * math.sqrt(0.5)
+        for k in range(0, HEADINGS, 7):
+            kernel = _footprint_kernel(body, grow, 2 * math.pi * k / HEADINGS, RES)
+            free = ~binary_dilation(occ, structure=kernel[::-1, ::-1])
+            free[0, :] = free[-1, :] = False
+            free[:, 0] = free[:, -1] = False
+            assert np.array_equal(room.free[k], free), (margin, k)
