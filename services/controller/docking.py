@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.controller.command import Command
-from services.controller.manoeuvre import ManoeuvreBody, Room, plan_manoeuvre
+from services.controller.manoeuvre import Budget, ManoeuvreBody, Room, plan_manoeuvre
 from shared.config import ControllerConfig, Footprint, RobotConfig
 from shared.geometry import (
     angle_between,
@@ -73,6 +73,7 @@ VIA_TOLERANCE_M = 0.03  # how near each pose of a manoeuvre is reached
 VIA_HEADING_RAD = math.radians(3)
 ROOM_CELL_M = 0.05  # the grid a manoeuvre is planned on
 ROOM_REACH_M = 1.5  # how far round the pose and the goal the room is taken from the points
+PLAN_EXPANSIONS = 120_000  # all margins' searches together: about 2 s on a busy machine
 ENDS_ON_M = 0.05  # a manoeuvre ending this near the goal's line reaches it (one cell)
 PLAN_SLACK_M = 0.03  # a manoeuvre keeps this much more than the margin: poses are reached
 # within VIA_TOLERANCE_M, and the safety checks must never hold one of its turns
@@ -209,9 +210,11 @@ class Docker:
         # a smaller margin that ends on the goal is better (kept otherwise as a fallback),
         # down to none: the grid is conservative by up to a cell (a point anywhere in it,
         # scattered by range noise), and the controller's guard keeps its own margin
+        budget = Budget(PLAN_EXPANSIONS)
         for margin in (self.margin_m + PLAN_SLACK_M, self.margin_m, self.margin_m / 2, 0.0):
             body = ManoeuvreBody(fp.front, fp.rear, fp.width, margin)
-            poses = plan_manoeuvre(Room(occupied, ROOM_CELL_M, origin, body), (x, y, theta), goal)
+            room = Room(occupied, ROOM_CELL_M, origin, body)
+            poses = plan_manoeuvre(room, (x, y, theta), goal, budget=budget)
             if poses is not None and _ends_on(poses[-1], goal):
                 break
             short = short or (None if poses is None else (poses, margin))

@@ -52,8 +52,17 @@ class ManoeuvreCosts:
     reverse_factor: float = 1.5
     turn_m_per_rad: float = 0.3
     switch_m: float = 0.5
-    max_expansions: int = 200_000
+    max_expansions: int = 60_000  # per search; the campaign's series rooms take up to 52k
     goal_slack_m: float = 0.15  # a goal that does not fit: any pose this near it ends the search
+
+
+@dataclass
+class Budget:
+    """Expansions left to the searches of one manoeuvre (several margins share it): a
+    search that finds nothing explores every pose it can reach, and in lockstep the
+    controller's tick waits for it (the simulator gives up after 5 s)."""
+
+    left: int
 
 
 class Room:
@@ -119,15 +128,24 @@ class Room:
 
     def drive_fits(self, x0: float, y0: float, x1: float, y1: float, k: int) -> bool:
         """Whether driving straight from (x0, y0) to (x1, y1) with heading step ``k`` is clear."""
-        n = max(1, math.ceil(math.hypot(x1 - x0, y1 - y0) / (self.res / 2)))
-        free, res, ox, oy = self.free[k % HEADINGS], self.res, self.ox, self.oy
-        h, w = self.shape
-        for i in range(n + 1):
-            r = math.floor((y0 + (y1 - y0) * i / n - oy) / res)
-            c = math.floor((x0 + (x1 - x0) * i / n - ox) / res)
-            if not (0 <= r < h and 0 <= c < w and free[r, c]):
-                return False
-        return True
+        return _line_free(self.free[k % HEADINGS], self.res, self.ox, self.oy, x0, y0, x1, y1)
+
+
+@numba.njit(cache=True)
+def _line_free(
+    free: np.ndarray, res: float, ox: float, oy: float, x0: float, y0: float, x1: float, y1: float
+) -> bool:
+    """Whether every cell on the straight line from (x0, y0) to (x1, y1), sampled every
+    half cell, is free in ``free`` (one heading step's grid): the search tries a drive to
+    the goal from every pose it expands, so this is its inner loop."""
+    h, w = free.shape
+    n = max(1, math.ceil(math.hypot(x1 - x0, y1 - y0) / (res / 2)))
+    for i in range(n + 1):
+        r = math.floor((y0 + (y1 - y0) * i / n - oy) / res)
+        c = math.floor((x0 + (x1 - x0) * i / n - ox) / res)
+        if not (0 <= r < h and 0 <= c < w and free[r, c]):
+            return False
+    return True
 
 
 @numba.njit(cache=True)
@@ -178,7 +196,8 @@ def warm_up() -> None:
     in lockstep the compile would hold a tick past the simulator's timeout."""
     occupied = np.zeros((4, 4), dtype=bool)
     occupied[1, 1] = True
-    Room(occupied, 0.05, (0.0, 0.0), ManoeuvreBody(0.2, 0.1, 0.2, 0.0))
+    room = Room(occupied, 0.05, (0.0, 0.0), ManoeuvreBody(0.2, 0.1, 0.2, 0.0))
+    room.drive_fits(0.0, 0.0, 0.1, 0.1, 0)
 
 
 def heading_step(theta: float) -> int:
@@ -222,6 +241,7 @@ def plan_manoeuvre(
     start: tuple[float, float, float],
     goal: tuple[float, float, float],
     costs: ManoeuvreCosts | None = None,
+    budget: Budget | None = None,
 ) -> list[tuple[float, float, float]] | None:
     """The poses (x, y, theta) where the motion changes, from ``start`` to ``goal``: each
     reached from the one before by one turn on the spot or one straight drive, the last
@@ -234,7 +254,8 @@ def plan_manoeuvre(
     that does not fit (the safety checks hold the chair there, a corner inside the margin)
     is left by up to ``ESCAPE_STEPS`` straight steps forwards or back that need not fit
     either, then by moves that do.
-    None if no way is found within ``costs.max_expansions``."""
+    None if no way is found within ``costs.max_expansions`` (and what is ``left`` of a
+    shared ``budget``, which the search uses up)."""
     costs = costs or ManoeuvreCosts()
     k0, kg = heading_step(start[2]), heading_step(goal[2])
     fits = room.fits(goal[0], goal[1], kg)
@@ -250,8 +271,11 @@ def plan_manoeuvre(
     step = room.res
     turn_cost = costs.turn_m_per_rad * 2 * math.pi / HEADINGS
 
-    def heuristic(x: float, y: float) -> float:
-        return math.hypot(goal[0] - x, goal[1] - y)
+    def heuristic(x: float, y: float, k: int) -> float:
+        """A lower bound of the cost to go: the distance, and the turn still to make to
+        the goal heading (only turns on the spot change it; one step is the tolerance)."""
+        steps = abs((kg - k + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
+        return math.hypot(goal[0] - x, goal[1] - y) + turn_cost * max(0, steps - steps_off)
 
     # a node: (x, y, k, mode); parents by key, keys by (row, col, k, mode)
     first = (start[0], start[1], k0, TURN)
@@ -261,14 +285,17 @@ def plan_manoeuvre(
     key0 = (*room.cell(start[0], start[1]), k0, TURN)
     best[key0], parent[key0], node_of[key0] = 0.0, None, first
     escape = {key0: 0 if room.fits(start[0], start[1], k0) else 1}  # steps out, 0: fits
-    queue = [(heuristic(start[0], start[1]), 0.0, key0)]
+    queue = [(heuristic(start[0], start[1], k0), 0.0, key0)]
     expanded = 0
     goal_turns: dict[int, bool] = {}
-    while queue and expanded < costs.max_expansions:
+    limit = costs.max_expansions if budget is None else min(costs.max_expansions, budget.left)
+    while queue and expanded < limit:
         _, g, key = heapq.heappop(queue)
         if g > best.get(key, math.inf):
             continue
         expanded += 1
+        if budget is not None:
+            budget.left -= 1
         x, y, k, mode = node_of[key]
         near = math.hypot(goal[0] - x, goal[1] - y) < reach
         if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= steps_off:
@@ -301,7 +328,7 @@ def plan_manoeuvre(
             if ng < best.get(nkey, math.inf):
                 best[nkey], parent[nkey], node_of[nkey] = ng, key, (nx, ny, nk, nmode)
                 escape[nkey] = 0 if fits else out + 1
-                heapq.heappush(queue, (ng + heuristic(nx, ny), ng, nkey))
+                heapq.heappush(queue, (ng + heuristic(nx, ny, nk), ng, nkey))
     return None
 
 
