@@ -463,3 +463,36 @@ def test_a_powered_door_held_open_is_renewed_and_released_when_the_mission_ends(
     assert fleet.door_requests[asked:] == [("d1", DoorMode.OPEN)] * 2, fleet.door_requests
     nav.on_goal(NavGoal(fleet.t, "", cancel=True))
     assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED)
+
+
+def test_held_again_after_a_recovery_it_also_manoeuvres_onto_the_route() -> None:
+    """Camp22 b3.m00: held 1.8 m before a door's approach pose, in a 0.94 m gap between
+    furniture that the planner's path entered 9 cm off its middle (the MPC's margins do
+    not fit there). Backing up, the turn (already facing the way: done at once) and the
+    re-plan (the same path) were all the recoveries did, three times. From the second
+    hold on, the recovery also docks onto the route ahead (the docker's precise margins
+    and manoeuvres), whether or not the turn worked."""
+    fleet = ScriptedFleet(AROUND)
+    nav, _out = navigator(fleet, max_recoveries=3, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    onto_per_recovery = []
+    for _ in range(2):
+        fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+        held_at = len([e for e in fleet.events if e[1].startswith("held")])
+        while len([e for e in fleet.events if e[1].startswith("held")]) == held_at:
+            fleet.t += 0.5
+            step(nav, fleet)
+        sent = len(fleet.sent)
+        while nav.recovering and fleet.t < 200.0:
+            fleet.t += 0.5
+            step(nav, fleet)
+            last = fleet.sent[-1]
+            if last.reverse or last.dock_heading is not None:
+                fleet.arrive()  # each recovery move gets there (the turn at once)
+                step(nav, fleet)
+        onto_per_recovery.append(
+            any(p.path_id.startswith("Onto the route") for p in fleet.sent[sent:])
+        )
+        step(nav, fleet)
+    assert onto_per_recovery == [False, True], fleet.events
