@@ -10,8 +10,11 @@ skipped. Where the turn cannot be made (the chair stands at the mouth of a corri
 narrow as itself is long, its walls beside it), it docks instead at a pose on the route
 ahead, facing along it: the docker's manoeuvre (turns and short drives) takes it into
 the corridor where neither the MPC nor a turn on the spot can, bounded by that limit
-plus ``navigator.manoeuvre_allowance_s``. The navigator then re-plans with the points
-that blocked the chair marked as obstacles.
+plus ``navigator.manoeuvre_allowance_s``. Held again after a recovery, it docks there
+whether or not the turn worked (a gap between furniture that the MPC's margins do not
+fit, entered off its middle: the turn is done at once and the re-plan gives the same
+path). The navigator then re-plans with the points that blocked the chair marked as
+obstacles.
 """
 
 from __future__ import annotations
@@ -175,9 +178,11 @@ def create_recovery_tree(
     nav: NavigatorConfig,
     clock: Callable[[], float],
     onto: tuple[str, tuple[float, float, float]] | None = None,
+    always_onto: bool = False,
 ) -> py_trees.behaviour.Behaviour:
-    """Back up, then turn in place towards ``face`` or, where that fails, dock at the
-    route's pose ``onto`` (floor, (x, y, heading)); each bounded, a failure skipped."""
+    """Back up, then turn in place towards ``face`` or, where that fails (or always, with
+    ``always_onto``: held again after a recovery), dock at the route's pose ``onto``
+    (floor, (x, y, heading)); each bounded, a failure skipped."""
     limit = nav.recovery_move_timeout_s
 
     def bounded(child: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
@@ -189,19 +194,22 @@ def create_recovery_tree(
         "Turn in place", TurnToward(face, turn_radius_m, nav), limit, clock
     )
     if onto is not None:
-        turn = py_trees.composites.Selector(
-            "Turn or manoeuvre",
-            memory=True,
-            children=[
-                turn,
-                Timeout(
-                    "Onto the route",
-                    OntoRoute(onto[0], onto[1], nav),
-                    limit + nav.manoeuvre_allowance_s,
-                    clock,
-                ),
-            ],
+        manoeuvre = Timeout(
+            "Onto the route",
+            OntoRoute(onto[0], onto[1], nav),
+            limit + nav.manoeuvre_allowance_s,
+            clock,
         )
+        if always_onto:
+            turn = py_trees.composites.Sequence(
+                "Turn and manoeuvre",
+                memory=True,
+                children=[py_trees.decorators.FailureIsSuccess("Turn (or skip)", turn), manoeuvre],
+            )
+        else:
+            turn = py_trees.composites.Selector(
+                "Turn or manoeuvre", memory=True, children=[turn, manoeuvre]
+            )
     return py_trees.composites.Sequence(
         "Recover",
         memory=True,

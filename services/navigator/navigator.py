@@ -273,6 +273,7 @@ class Navigator:
                 self.cfg,
                 self.fleet.now,
                 self._onto(),
+                always_onto=self.recoveries >= 2,  # held again: the plain ones did not do
             )
         )
         self._set("running", phase=Phase.RECOVER, action="recover")
