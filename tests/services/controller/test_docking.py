@@ -398,6 +398,39 @@ def test_a_turn_is_not_sent_the_long_way_round_into_what_stands_behind() -> None
     assert half.step(0.0, 0.0, 0.0, obstacles=left).w < 0.0
 
 
+B10_START = (40.23, 7.58, math.radians(-168))  # in the room between d1_012 and d1_011
+
+
+def b10_series_room(tmp_path, leaves: bool):
+    """Generated building 10's floor 1, d1_011 and its approach pose (facing +y), and the
+    map's LiDAR scan from ``B10_START`` (the open leaves drawn in with ``leaves``)."""
+    from services.planner.grid_planner import with_open_leaves
+    from shared.site import load_site
+    from sim.building_gen import GenOptions, generate_building
+    from wheelnav.bench.mpc import Scene, lidar_scan
+
+    built = generate_building(10, tmp_path / "b10", GenOptions(floors=(1, 3)))
+    site = load_site(built.site_path / "site.yaml")
+    grid = site.floors["1"].map
+    door = next(d for d in site.doors if d.id == "d1_011")
+    goal = (door.pass_centre[0], door.pass_centre[1] - 1.0, math.pi / 2)
+    walls = grid.occupied(True)
+    walls = with_open_leaves(walls, site, "1") if leaves else walls
+    scene = Scene("b10", walls, grid.origin[:2], None, None, None, B10_START)
+    return door, goal, lidar_scan(scene, B10_START[0], B10_START[1], beams=1800)
+
+
+def across_after_planning(goal, points) -> tuple[float, str]:
+    """How far across the goal's line the docker's manoeuvre from ``B10_START`` ends (the
+    goal faces +y: across is along x), and its note."""
+    docker = Docker(DOCK, RobotConfig().footprint, RobotConfig().side_margin_m)
+    docker.set_goal(*goal)
+    docker.step(*B10_START, obstacles=points, period_s=0.1)
+    docker._plan(*B10_START, points)
+    assert docker._via, docker.plan_note
+    return abs(docker._via[-1][0] - goal[0]), docker.plan_note
+
+
 def test_a_manoeuvre_that_reaches_the_goal_at_a_smaller_margin_beats_one_that_stops_short(
     tmp_path,
 ) -> None:
@@ -407,28 +440,9 @@ def test_a_manoeuvre_that_reaches_the_goal_at_a_smaller_margin_beats_one_that_st
     slack, 0.13 m beside the door's line; the docker took it and Phase 0 failed three
     times, "not within 0.15 m". At 0.05 m the pose fits and the manoeuvre ends on the
     line: that one is taken."""
-    from services.planner.grid_planner import with_open_leaves
-    from shared.site import load_site
-    from sim.building_gen import GenOptions, generate_building
-    from wheelnav.bench.mpc import Scene, lidar_scan
-
-    built = generate_building(10, tmp_path / "b10", GenOptions(floors=(1, 3)))
-    site = load_site(built.site_path / "site.yaml")
-    grid = site.floors["1"].map
-    start = (40.23, 7.58, math.radians(-168))
-    door = next(d for d in site.doors if d.id == "d1_011")
-    goal = (door.pass_centre[0], door.pass_centre[1] - 1.0, math.pi / 2)  # its approach pose
-    walls = with_open_leaves(grid.occupied(True), site, "1")
-    scene = Scene("b10", walls, grid.origin[:2], None, None, None, start)
-    points = lidar_scan(scene, start[0], start[1], beams=1800)
-    fp = RobotConfig().footprint
-    docker = Docker(DOCK, fp, RobotConfig().side_margin_m)
-    docker.set_goal(*goal)
-    docker.step(*start, obstacles=points, period_s=0.1)
-    docker._plan(*start, points)
-    assert docker._via, docker.plan_note
-    across = abs(docker._via[-1][0] - goal[0])  # the goal faces +y: across is along x
-    assert across <= 0.05, (docker.plan_note, docker._via[-2:])
+    _door, goal, points = b10_series_room(tmp_path, leaves=True)
+    across, note = across_after_planning(goal, points)
+    assert across <= 0.05, note
 
 
 def test_a_manoeuvre_onto_a_pose_beside_a_leaf_seen_through_range_noise(tmp_path) -> None:
@@ -437,28 +451,10 @@ def test_a_manoeuvre_onto_a_pose_beside_a_leaf_seen_through_range_noise(tmp_path
     nearer by range noise. On 5 cm cells grown by the margin and half a cell the pose did
     not fit even at 0.025 m; a last search at no margin (the grid is conservative, the
     guard keeps its own) ends on the door's line."""
-    from shared.site import load_site
-    from sim.building_gen import GenOptions, generate_building
-    from wheelnav.bench.mpc import Scene, lidar_scan
-
-    built = generate_building(10, tmp_path / "b10", GenOptions(floors=(1, 3)))
-    site = load_site(built.site_path / "site.yaml")
-    grid = site.floors["1"].map
-    start = (40.23, 7.58, math.radians(-168))
-    door = next(d for d in site.doors if d.id == "d1_011")
-    goal = (door.pass_centre[0], door.pass_centre[1] - 1.0, math.pi / 2)
-    scene = Scene("b10", grid.occupied(True), grid.origin[:2], None, None, None, start)
-    walls = lidar_scan(scene, start[0], start[1], beams=1800)
+    door, goal, walls = b10_series_room(tmp_path, leaves=False)
     rng = np.random.default_rng(3)
     face = door.p1[0] - door.leaf_thickness_m / 2  # the leaf stands along x = p1's, inward
     ys = rng.uniform(door.p1[1] - door.width_m, door.p1[1], 2500)
-    leaf = np.column_stack((face + np.abs(rng.normal(0.0, 0.015, ys.size)) * -1.0, ys))
-    points = np.vstack((walls, leaf))
-    fp = RobotConfig().footprint
-    docker = Docker(DOCK, fp, RobotConfig().side_margin_m)
-    docker.set_goal(*goal)
-    docker.step(*start, obstacles=points, period_s=0.1)
-    docker._plan(*start, points)
-    assert docker._via, docker.plan_note
-    across = abs(docker._via[-1][0] - goal[0])
-    assert across <= 0.05, (docker.plan_note, docker._via[-2:])
+    leaf = np.column_stack((face - np.abs(rng.normal(0.0, 0.015, ys.size)), ys))
+    across, note = across_after_planning(goal, np.vstack((walls, leaf)))
+    assert across <= 0.05, note
