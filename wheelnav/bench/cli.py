@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import sys
 
 BENCHES = {
     "planner": ("wheelnav.bench.planner", "A* vs pyastar2d on 800 x 4000, inflation"),
@@ -25,5 +26,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run one benchmark; a missing optional peer (``.[bench]``) is one line, status 2."""
     module = importlib.import_module(BENCHES[args.name][0])
-    return int(module.main(args.rest) or 0)
+    try:
+        return int(module.main(args.rest) or 0)
+    except ImportError as exc:
+        print(f"wheelnav bench {args.name}: {exc}", file=sys.stderr)
+        return 2

@@ -18,3 +18,15 @@ def test_benchmark_map_is_seed_sized_and_connected() -> None:
     path = astar(lethal, s, g)
     assert len(path) > 4000  # crosses the whole building
     assert np.array_equal(seed_sized_map(0)[0], occ)  # deterministic
+
+
+def test_missing_peer_is_one_line_and_status_2(monkeypatch, capsys) -> None:
+    import argparse
+    import sys
+
+    from wheelnav.bench.cli import run
+
+    monkeypatch.setitem(sys.modules, "pyastar2d", None)  # import fails, as when not installed
+    assert run(argparse.Namespace(name="planner", rest=[])) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "pip install -e '.[bench]'" in err
