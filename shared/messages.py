@@ -566,8 +566,10 @@ class Event(Msg):
 class DoorClearance(Msg):
     """The smallest clearance the simulator measured while the chair was in one opening:
     what it was to (``nearest``: "wall", "door X", ...), where the chair stood then (true
-    pose [x, y, theta]) and the opening's clear width (``free_width_m``: less half a hinged
-    leaf's thickness, which stands in it open; 0: as ``width_m``)."""
+    pose [x, y, theta]), the opening's clear width (``free_width_m``: less half a hinged
+    leaf's thickness, which stands in it open; 0: as ``width_m``) and whether the chair's
+    centre stood in the doorway (``entered``; False: only its outline came near, as
+    turning beside a door it does not pass)."""
 
     door_id: str
     width_m: float = num(*LENGTH)
@@ -575,6 +577,7 @@ class DoorClearance(Msg):
     nearest: str = ""
     at: list[float] = field(default_factory=list)
     free_width_m: float = num(*LENGTH, default=0.0)
+    entered: bool = True
 
     def validate(self) -> None:
         if len(self.at) not in (0, 3):

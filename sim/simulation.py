@@ -52,6 +52,7 @@ class ClearanceSeen:
     nearest: str = ""
     at: tuple[float, float, float] = (0.0, 0.0, 0.0)
     free: float = 0.0
+    entered: bool = False  # the chair's centre stood in the doorway (it passed, or began to)
 
     def see(self, clearance: float, nearest: str, at: tuple[float, float, float]) -> None:
         if clearance < self.clearance:
@@ -92,6 +93,15 @@ def _openings(site: Site, hinged: set[str]) -> dict[str, list[Opening]]:
             )
         )
     return out
+
+
+def _centre_in(o: Opening, x: float, y: float) -> bool:
+    """True if the point (x, y) is in the doorway itself: within the wall's thickness of
+    the door plane and between the jambs. A chair whose nose only dips into a doorway it
+    does not pass (turning beside it in a corridor) is judged as away from doors."""
+    along = (x - o.cx) * o.nx + (y - o.cy) * o.ny
+    lateral = (x - o.cx) * o.ny - (y - o.cy) * o.nx
+    return abs(along) <= o.reach and abs(lateral) <= o.width / 2
 
 
 @dataclass
@@ -322,12 +332,19 @@ class Simulation:
             seen = self.door_clearance.setdefault(
                 opening.id, ClearanceSeen(opening.width, free=opening.free)
             )
+            seen.entered = seen.entered or _centre_in(opening, *self._footprint_centre(s))
         seen.see(best, self.nearest, (s.x, s.y, s.theta))
 
     @property
     def min_clearance_away(self) -> float:
         """The smallest clearance seen away from every door opening (inf: none yet)."""
         return self.away.clearance
+
+    def _footprint_centre(self, s: ChairState) -> tuple[float, float]:
+        """The middle of the footprint's outline at the chair's true pose ``s``."""
+        c, n = math.cos(s.theta), math.sin(s.theta)
+        mx, my = self._corners.mean(axis=0)
+        return s.x + mx * c - my * n, s.y + mx * n + my * c
 
     def _opening_at(self, x: float, y: float, theta: float) -> Opening | None:
         """The door opening (site door or car door on the chair's floor) whose zone the

@@ -168,6 +168,7 @@ def _run(
                             seen.nearest,
                             [round(v, 3) for v in seen.at],
                             seen.free,
+                            seen.entered,
                         )
                         for door_id, seen in sim.door_clearance.items()
                     ],

@@ -113,3 +113,15 @@ def test_an_open_hinged_leaf_takes_from_the_clear_width_and_tight_spots_say_wher
     text = format_tight([row])
     assert "0.030 m away from doors, to wall with the chair at (5.00, 1.25, 0 deg)" in text
     assert format_tight([judge(scenario(), report(True))]) == "every clearance within its limit"
+
+
+def test_a_doorway_only_the_outline_came_near_is_judged_as_away_from_doors() -> None:
+    # turning beside a 1.2 m door it does not pass, the chair's nose 0.10 m from its leaf:
+    # inside that opening 0.235 m would be needed, away from doors 0.05 m is
+    near = {"door": "d9", "width_m": 1.2, "min_clearance_m": 0.10, "entered": False}
+    row = judge(scenario(), report(True, door_clearance=[near]))
+    assert row["door_clearance"][0]["required_m"] == 0.05 and row["clearance_ok"]
+    row = judge(scenario(), report(True, door_clearance=[{**near, "min_clearance_m": 0.04}]))
+    assert row["tight_doors"] == ["d9"] and not row["clearance_ok"]
+    passed = judge(scenario(), report(True, door_clearance=[{**near, "entered": True}]))
+    assert passed["tight_doors"] == ["d9"]  # passing it, its centring counts

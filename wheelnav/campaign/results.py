@@ -19,9 +19,13 @@ AWAY_CLEARANCE_M = 0.05  # min clearance away from door openings
 DOOR_SLACK_M = 0.03  # inside an opening: (free width - chair width) / 2 less this
 
 
-def door_requirement_m(width_m: float, chair_width_m: float) -> float:
+def door_requirement_m(width_m: float, chair_width_m: float, entered: bool = True) -> float:
     """The least clearance accepted inside an opening ``width_m`` wide (its clear width:
-    a hinged leaf standing open takes half its thickness from it)."""
+    a hinged leaf standing open takes half its thickness from it); near a doorway the
+    chair's centre never stood in (``entered`` False: its outline turned beside a door it
+    did not pass), the limit away from doors."""
+    if not entered:
+        return AWAY_CLEARANCE_M
     return (width_m - chair_width_m) / 2 - DOOR_SLACK_M
 
 
@@ -43,7 +47,10 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
         {
             **d,
             "required_m": round(
-                door_requirement_m(d.get("free_width_m") or d["width_m"], chair_w), 4
+                door_requirement_m(
+                    d.get("free_width_m") or d["width_m"], chair_w, d.get("entered", True)
+                ),
+                4,
             ),
         }
         for d in report.get("door_clearance", [])

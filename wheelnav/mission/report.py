@@ -148,6 +148,8 @@ class Recorder:
             seen = self.door_clearance.get(d.door_id)
             if seen is None or d.min_clearance_m < seen.min_clearance_m:
                 self.door_clearance[d.door_id] = d
+            if seen is not None and seen.entered:  # once in the doorway, always so
+                self.door_clearance[d.door_id].entered = True
 
     def on_diagnostics(self, msg: Diagnostics) -> None:
         """A service's counters: the latest of each service before the mission ended."""
@@ -271,6 +273,7 @@ class Recorder:
                     "free_width_m": round(d.free_width_m or d.width_m, 3),
                     "nearest": d.nearest,
                     "at": list(d.at),
+                    "entered": d.entered,
                 }
                 for door, d in self.door_clearance.items()
             ],

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from shared.config import ConfigError
-from shared.messages import NavStatus, SimStatus
+from shared.messages import DoorClearance, NavStatus, SimStatus
 from tests.conftest import ROOT
 from wheelnav.mission.report import Recorder
 from wheelnav.mission.scenario import load_scenario
@@ -103,3 +103,14 @@ def test_the_report_keeps_the_status_text_where_it_changes_in_more_than_numbers(
         (7.0, "Door d1_004 (3/6)"),
         (8.0, "Door d1_004 (3/6)"),
     ]
+
+
+def test_recorder_keeps_that_a_doorway_was_entered_once_it_was() -> None:
+    r = Recorder("g1")
+    r.on_status(NavStatus(0.2, "g1", "running", phase="follow"))
+    entered = DoorClearance("d1", 0.9, 0.12, entered=True)
+    r.on_sim_status(SimStatus(1.0, 0, False, 0.3, 0.12, doors=[entered]))
+    later = DoorClearance("d1", 0.9, 0.08, entered=False)  # lower, from a stale flag
+    r.on_sim_status(SimStatus(2.0, 0, False, 0.3, 0.08, doors=[later]))
+    (door,) = r.report("x", 1.0)["door_clearance"]
+    assert door["min_clearance_m"] == 0.08 and door["entered"] is True
