@@ -113,3 +113,26 @@ def test_a_start_within_the_inflation_of_a_wall_plans_out_of_it(planner) -> None
     assert not inflated[out:].any()  # and never back in
     with pytest.raises(errors.StartOccupied):
         planner.planner.plan((2.0, 0.1), (10.5, 2.7), "1")  # in the wall itself
+
+
+def _nearest_wall_m(site, planner: Planner, start, goal) -> float:
+    from services.planner.inflation import obstacle_distance
+
+    grid, _ = planner.lethal("")
+    dense = densify(np.asarray(planner.plan(start, goal, "").corners)[:, :2], 0.02)
+    dist = obstacle_distance(grid.occupied(True), grid.resolution)
+    return float(min(dist[grid.to_cell(x, y)] for x, y in dense))
+
+
+def test_a_path_through_a_gap_keeps_to_its_middle_not_to_the_inflation(tmp_path) -> None:
+    # camp22 b3.m00: a shortcut pulled tight to the inflation entered a 0.94 m gap 9 cm off
+    # its middle, where the controller's margins did not fit; here a 1.0 m gap, diagonally
+    from sim.sitegen import draw, write_map
+
+    walls = [(0, 0, 8, 0.2), (0, 5.8, 8, 6), (0, 0, 0.2, 6), (7.8, 0, 8, 6)]
+    walls += [(3.9, 0, 4.1, 2.5), (3.9, 3.5, 4.1, 6)]
+    site = load_site(write_map(draw((8.0, 6.0), walls), tmp_path, "m"))
+    ends = (1.0, 1.0), (7.0, 5.0)
+    tight = PlannerConfig(cost_band_m=0.0, shortcut_margin_m=0.0)
+    assert _nearest_wall_m(site, Planner(site, RobotConfig(), tight), *ends) < 0.40
+    assert _nearest_wall_m(site, Planner(site, RobotConfig(), PlannerConfig()), *ends) >= 0.48
