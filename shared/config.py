@@ -155,7 +155,13 @@ class PlannerConfig:
     """The route planner."""
 
     inflation_margin_m: float = field(default=0.05, metadata=check(_non_negative))
-    cost_band_m: float = field(default=0.0, metadata=check(_non_negative))
+    # the search pays extra (Nav2-style, falling off from the inflation's edge) within
+    # cost_band_m of it, so its path keeps to the middle of a gap; a shortcut of that path
+    # keeps the chair's centre shortcut_margin_m further from obstacles than the inflation
+    # does, where the search's path kept that far (pulled tight, a path through a 1.0 m
+    # gap passed 0.354 m from a jamb and the controller's margins no longer fit)
+    cost_band_m: float = field(default=0.3, metadata=check(_non_negative))
+    shortcut_margin_m: float = field(default=0.15, metadata=check(_non_negative))
     cruise_speed: float = field(default=0.5, metadata=check(_positive))
     goal_speed_radius_m: float = field(default=1.0, metadata=check(_non_negative))
     waypoint_spacing_m: float = field(default=0.5, metadata=check(_positive))

@@ -16,7 +16,7 @@ import numpy as np
 
 from services.planner import errors
 from services.planner.grid_astar import Landmarks, NoPathError, astar
-from services.planner.inflation import inflate
+from services.planner.inflation import inflate, obstacle_distance
 from shared.config import PlannerConfig, RobotConfig
 from shared.site import GridMap, Site, SiteError
 
@@ -42,6 +42,7 @@ class _FloorGrid:
     cost: np.ndarray
     landmarks: Landmarks | None
     occupied: np.ndarray  # the map's walls (and open leaves), not inflated
+    room: np.ndarray  # each cell's distance to the nearest obstacle (m)
 
 
 def inflation_radius(robot: RobotConfig, cfg: PlannerConfig) -> float:
@@ -63,7 +64,8 @@ class Planner:
             occ = with_open_leaves(floor.map.occupied(cfg.unknown_is_occupied), site, name)
             lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)
             lm = Landmarks(lethal, cfg.landmarks) if cfg.landmarks and (~lethal).any() else None
-            self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm, occ)
+            room = obstacle_distance(occ, floor.map.resolution).astype(np.float32)
+            self._floors[name] = _FloorGrid(floor.map, lethal, cost, lm, occ, room)
 
     def resolve_place(self, place: str) -> tuple[float, float, float, str]:
         """(x, y, theta, floor) of a named place; UnknownPlace if the site has none so called."""
@@ -168,7 +170,8 @@ class Planner:
             raise errors.NoPath(
                 f"no path from {_xy(start)} to {_xy(goal)} on floor {floor}: {exc}"
             ) from None
-        pts = fg.grid.to_world(shorten(cells, lethal))
+        keep = self.radius + self.cfg.shortcut_margin_m
+        pts = fg.grid.to_world(shorten(cells, lethal, fg.room, keep))
         pts[0], pts[-1] = start, goal
         return pts
 
@@ -304,30 +307,47 @@ def run_in_point(
     return None
 
 
-def line_is_free(lethal: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
-    """True if the straight segment between cells ``a`` and ``b`` touches no lethal cell."""
+def line_is_free(
+    lethal: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    room: np.ndarray | None = None,
+    least: float | None = None,
+) -> bool:
+    """True if the straight segment between cells ``a`` and ``b`` touches no lethal cell
+    (and, given ``room`` and ``least``, no cell nearer an obstacle than ``least``)."""
     n = int(np.ceil(np.abs(b - a).max() * 2)) + 1
     t = np.linspace(0.0, 1.0, n)[:, None]
     pts = np.rint(a + (b - a) * t).astype(int)
-    return not lethal[pts[:, 0], pts[:, 1]].any()
+    if lethal[pts[:, 0], pts[:, 1]].any():
+        return False
+    return room is None or least is None or bool(room[pts[:, 0], pts[:, 1]].min() >= least)
 
 
-def shorten(cells: np.ndarray, lethal: np.ndarray) -> np.ndarray:
-    """Keep only the corners needed so every straight leg stays outside the lethal area."""
-    keep = [0]
+def shorten(
+    cells: np.ndarray, lethal: np.ndarray, room: np.ndarray | None = None, keep: float = 0.0
+) -> np.ndarray:
+    """Keep only the corners needed so every straight leg stays outside the lethal area
+    and, given ``room`` (each cell's distance to the nearest obstacle), never nearer to
+    one than ``keep`` where the search's own path kept that far (nor nearer than it did
+    where it came closer): a shortcut pulled tight round a corner leaves the chair's side
+    at the inflation's margin, where its turns sweep the walls."""
+    near = None if room is None else room[cells[:, 0], cells[:, 1]]
+    keep_m = [0]
     i = 0
     last = len(cells) - 1
     while i < last:
         lo, hi = i + 1, last
         while lo < hi:  # farthest visible cell, by bisection on the path index
             mid = (lo + hi + 1) // 2
-            if line_is_free(lethal, cells[i], cells[mid]):
+            floor = None if near is None else min(keep, float(near[i : mid + 1].min()))
+            if line_is_free(lethal, cells[i], cells[mid], room, floor):
                 lo = mid
             else:
                 hi = mid - 1
         i = lo
-        keep.append(i)
-    return cells[keep]
+        keep_m.append(i)
+    return cells[keep_m]
 
 
 def densify(points: np.ndarray, spacing: float) -> np.ndarray:
