@@ -101,7 +101,7 @@ def _centre_in(o: Opening, x: float, y: float) -> bool:
     does not pass (turning beside it in a corridor) is judged as away from doors."""
     along = (x - o.cx) * o.nx + (y - o.cy) * o.ny
     lateral = (x - o.cx) * o.ny - (y - o.cy) * o.nx
-    return abs(along) <= o.reach and abs(lateral) <= o.width / 2
+    return bool(abs(along) <= o.reach and abs(lateral) <= o.width / 2)
 
 
 @dataclass
@@ -344,7 +344,7 @@ class Simulation:
         """The middle of the footprint's outline at the chair's true pose ``s``."""
         c, n = math.cos(s.theta), math.sin(s.theta)
         mx, my = self._corners.mean(axis=0)
-        return s.x + mx * c - my * n, s.y + mx * n + my * c
+        return float(s.x + mx * c - my * n), float(s.y + mx * n + my * c)
 
     def _opening_at(self, x: float, y: float, theta: float) -> Opening | None:
         """The door opening (site door or car door on the chair's floor) whose zone the

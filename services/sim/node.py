@@ -32,6 +32,32 @@ NAME = "sim"
 PROFILE_EVERY = 50  # ticks between two lockstep profiles (sim/profile)
 
 
+def status_message(sim: Simulation, stamp: float) -> SimStatus:
+    """The evaluation bookkeeping the simulator publishes: collisions and clearances."""
+    return SimStatus(
+        stamp,
+        sim.collisions,
+        sim.in_collision,
+        _finite(sim.clearance),
+        _finite(sim.min_clearance),
+        _finite(sim.min_clearance_away),
+        [
+            DoorClearance(
+                door_id,
+                seen.width,
+                _finite(seen.clearance),
+                seen.nearest,
+                [round(v, 3) for v in seen.at],
+                seen.free,
+                seen.entered,
+            )
+            for door_id, seen in sim.door_clearance.items()
+        ],
+        away_nearest=sim.away.nearest,
+        away_at=[round(v, 3) for v in sim.away.at],
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
@@ -151,31 +177,7 @@ def _run(
         for text in result.events:
             bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
         if result.new_collision or result.tick % status_every == 0:
-            bus.publish(
-                keys.sim_status,
-                SimStatus(
-                    stamp,
-                    sim.collisions,
-                    sim.in_collision,
-                    _finite(sim.clearance),
-                    _finite(sim.min_clearance),
-                    _finite(sim.min_clearance_away),
-                    [
-                        DoorClearance(
-                            door_id,
-                            seen.width,
-                            _finite(seen.clearance),
-                            seen.nearest,
-                            [round(v, 3) for v in seen.at],
-                            seen.free,
-                            seen.entered,
-                        )
-                        for door_id, seen in sim.door_clearance.items()
-                    ],
-                    away_nearest=sim.away.nearest,
-                    away_at=[round(v, 3) for v in sim.away.at],
-                ),
-            )
+            bus.publish(keys.sim_status, status_message(sim, stamp))
         if result.tick % PROFILE_EVERY == 0:
             bus.publish(keys.sim_profile, profile.message(stamp))
         t2 = clock()

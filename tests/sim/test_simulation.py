@@ -119,7 +119,7 @@ def test_clearance_in_an_opening_and_away_says_to_what_and_where() -> None:
     assert away.away.nearest == "wall" and away.away.at == pytest.approx((2.0, 2.7, 0.0))
     before = make(x=6.2 - 0.76 - 0.3, y=2.7)  # its front 0.3 m short of the door plane
     assert "door_ab" not in before.door_clearance and before.min_clearance_away < 2.0
-    assert seen.entered  # its centre in the doorway: judged as passing it
+    assert seen.entered is True  # its centre in the doorway: judged as passing it
     nose = make(x=6.2 - 0.76 + 0.1, y=2.7)  # only its front 0.1 m into the doorway
     assert not nose.door_clearance["door_ab"].entered
     assert away.min_clearance_away == away.away.clearance < 2.0
