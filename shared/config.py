@@ -307,6 +307,9 @@ class ControllerConfig:
     # proportion when slower, never under stop_min_distance_m (controller/safety.py)
     stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
     stop_min_distance_m: float = field(default=0.05, metadata=check(_non_negative))
+    # and never shorter than the braking distance (this long at the speed, one command
+    # period and the motors' lag, then robot.max_accel) plus stop_min_distance_m
+    brake_latency_s: float = field(default=0.1, metadata=check(_non_negative))
     # the strip's margin a side of the chair in a precise pass or docking, instead of
     # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
     precise_side_margin_m: float = field(default=0.02, metadata=check(_non_negative))

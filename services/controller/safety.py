@@ -8,7 +8,8 @@ or docking ``controller.precise_side_margin_m``: beside an 0.80 m door an open l
 the chair 3-5 cm a side, and the wide strip caught it on every tick; the turn check below
 keeps the same margin, which a docking manoeuvre is planned with). Its length grows
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
-proportion below, never under ``stop_min_distance_m``; a docking crawl next to a wall
+proportion below, never under ``stop_min_distance_m`` nor under the braking distance plus
+that; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
 door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
 the footprint turned as far as the chair turns in ``turn_check_s`` (at most
@@ -93,10 +94,19 @@ def arc_sweep_hit(
     return moves_close_in(pts, fp.front, fp.rear, fp.width, margin_m, poses)
 
 
+def braking_distance(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
+    """How far the chair runs on from speed ``v`` once told to stop: ``brake_latency_s``
+    at that speed, then braking at ``robot.max_accel``."""
+    return abs(v) * cfg.brake_latency_s + v * v / (2.0 * robot.max_accel)
+
+
 def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
-    """How far beyond the footprint the stop zone reaches at speed ``v``."""
+    """How far beyond the footprint the stop zone reaches at speed ``v``: never less than
+    the braking distance plus ``stop_min_distance_m`` (at 0.6 m/s the 0.25 m zone alone
+    let the chair run 0.36 m, through what it had stopped for)."""
     share = min(1.0, abs(v) / robot.max_speed)
-    return max(cfg.stop_min_distance_m, cfg.stop_distance_m * share)
+    braking = braking_distance(v, robot, cfg) + cfg.stop_min_distance_m
+    return max(cfg.stop_min_distance_m, cfg.stop_distance_m * share, braking)
 
 
 def guard(
