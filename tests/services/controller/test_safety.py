@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from services.controller.safety import guard, stop_zone_hit, stop_zone_length, turn_sweep_hit
-from shared.config import ControllerConfig, RobotConfig
+from shared.config import ControllerConfig, RobotConfig, SimConfig
+from sim.robot import Chair, ChairState
 
 ROBOT = RobotConfig()
 CFG = ControllerConfig()
@@ -151,9 +152,6 @@ def test_a_turn_at_speed_stops_before_the_corner_sweeps_into_a_wall_beside_the_s
 def _stop_before_a_wall(v: float) -> float:
     """Drive the simulator's chair model at ``v`` (25 Hz commands) at a wall ahead through
     the guard; the gap between its front and the wall when it has stopped (m)."""
-    from sim.robot import Chair, ChairState
-    from shared.config import SimConfig
-
     wall_x = 3.0
     chair = Chair(ROBOT, ChairState(0.0, 0.0, 0.0, v=v), SimConfig().motor_lag_s, 0.5)
     ok = dict(scan_stamp=0.0, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
