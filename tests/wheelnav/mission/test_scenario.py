@@ -114,3 +114,11 @@ def test_recorder_keeps_that_a_doorway_was_entered_once_it_was() -> None:
     r.on_sim_status(SimStatus(2.0, 0, False, 0.3, 0.08, doors=[later]))
     (door,) = r.report("x", 1.0)["door_clearance"]
     assert door["min_clearance_m"] == 0.08 and door["entered"] is True
+    r = Recorder("g1")  # the least clearance before the chair entered, then it passed
+    r.on_status(NavStatus(0.2, "g1", "running", phase="follow"))
+    before = DoorClearance("d1", 0.9, 0.08, entered=False)
+    r.on_sim_status(SimStatus(1.0, 0, False, 0.3, 0.08, doors=[before]))
+    passing = DoorClearance("d1", 0.9, 0.12, entered=True)
+    r.on_sim_status(SimStatus(2.0, 0, False, 0.3, 0.08, doors=[passing]))
+    (door,) = r.report("x", 1.0)["door_clearance"]
+    assert door["min_clearance_m"] == 0.08 and door["entered"] is True
