@@ -146,10 +146,10 @@ class Recorder:
             self.away_nearest, self.away_at = msg.away_nearest, list(msg.away_at)
         for d in msg.doors:
             seen = self.door_clearance.get(d.door_id)
+            entered = d.entered or (seen is not None and seen.entered)  # once in, always so
             if seen is None or d.min_clearance_m < seen.min_clearance_m:
                 self.door_clearance[d.door_id] = d
-            if seen is not None and seen.entered:  # once in the doorway, always so
-                self.door_clearance[d.door_id].entered = True
+            self.door_clearance[d.door_id].entered = entered
 
     def on_diagnostics(self, msg: Diagnostics) -> None:
         """A service's counters: the latest of each service before the mission ended."""
