@@ -198,6 +198,10 @@ class LocalisationConfig:
     match_cutoff_m: float = field(default=0.4, metadata=check(_positive))
     scan_band_m: float = field(default=0.5, metadata=check(_positive))
     rate_hz: float = field(default=50.0, metadata=check(_positive))
+    # restarted by the launcher, it resumes from the pose it saved (every save_every_s of
+    # its clock, with the odometry of then) if that save is at most resume_within_s old
+    save_every_s: float = field(default=0.5, metadata=check(_positive))
+    resume_within_s: float = field(default=30.0, metadata=check(_positive))
 
 
 def _fraction(v: float) -> str | None:

@@ -26,11 +26,19 @@ class OdometryLocaliser:
         self.covariance = np.diag([1e-4, 1e-4, 1e-4])
         self.reset(x, y, theta, floor)
 
-    def reset(self, x: float, y: float, theta: float, floor: str) -> None:
-        """Re-anchor at a map pose (initial pose request, floor change)."""
+    def reset(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        floor: str,
+        odom: tuple[float, float, float] | None = None,
+    ) -> None:
+        """Re-anchor at a map pose (initial pose request, floor change); with ``odom``,
+        the odometry pose of that moment (a resumed pose: the motion since then counts)."""
         self.pose = (x, y, theta)
         self.floor = floor
-        self._last_odom: tuple[float, float, float] | None = None
+        self._last_odom: tuple[float, float, float] | None = odom
 
     def update(self, ox: float, oy: float, otheta: float) -> tuple[float, float, float]:
         """Apply the odometry pose (ox, oy, otheta); returns the new map pose."""
@@ -100,10 +108,19 @@ class MapLocaliser:
             return self.odometry.covariance * (1 + 10 * self.misses)
         return self.last_match.covariance
 
-    def reset(self, field: DistanceField, x: float, y: float, theta: float, floor: str) -> None:
-        """Re-initialise on a (possibly new) floor map, e.g. after an elevator ride."""
+    def reset(
+        self,
+        field: DistanceField,
+        x: float,
+        y: float,
+        theta: float,
+        floor: str,
+        odom: tuple[float, float, float] | None = None,
+    ) -> None:
+        """Re-initialise on a (possibly new) floor map, e.g. after an elevator ride
+        (``odom``: as ``OdometryLocaliser.reset``)."""
         self.field = field
-        self.odometry.reset(x, y, theta, floor)
+        self.odometry.reset(x, y, theta, floor, odom)
         self.misses = 0
         self.last_match = None
 

@@ -4,6 +4,8 @@
 uses odometry in between; ``odometry`` dead-reckons from the start pose. It is a
 lockstep participant of the first stage, so the pose for a tick is out before the
 controller acts on that tick. A pose that stops matching the map is flagged ``lost``.
+It saves its pose (``shared.state_store``); restarted, it resumes from it
+(``resume.py``) instead of the configured start pose.
 """
 
 from __future__ import annotations
@@ -14,9 +16,11 @@ import numpy as np
 
 from services.localisation.localiser import MapLocaliser, MapModeSettings, OdometryLocaliser
 from services.localisation.matcher import DistanceField
+from services.localisation.resume import SavedPose, resume_from
 from shared.messages import Clock, Event, Odometry, PointCloud, Pose2D, PoseEstimate
 from shared.service import Service
 from shared.site import SiteError, load_site
+from shared.state_store import StateStore
 
 NAME = "localisation"
 
@@ -45,7 +49,16 @@ def main(argv: list[str] | None = None) -> None:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
         pending: dict[str, object] = {}
-        state = {"lost": False, "match_ms": 0.0}
+        state = {"lost": False, "match_ms": 0.0, "saved_at": -float("inf")}
+        store = StateStore.from_env(NAME)
+        saved: list[SavedPose | None] = [None]  # to resume from, until the first odometry
+        try:
+            raw = store.load()
+            saved[0] = None if raw is None else SavedPose.from_dict(raw)
+        except ValueError as exc:
+            store.problem = str(exc)
+        if store.problem:
+            svc.log.warning("starting at the start pose: %s", store.problem)
 
         def on_odom(msg: Odometry) -> None:
             pending["odom"] = msg
@@ -72,11 +85,49 @@ def main(argv: list[str] | None = None) -> None:
                 loc.reset(p.x, p.y, p.theta, floor)
             svc.log.info("pose set to (%.2f, %.2f, %.2f) on floor %s", p.x, p.y, p.theta, floor)
 
+        def resume(odom: Odometry) -> None:
+            """At the first odometry: carry on from the saved pose if it is this run's."""
+            last, saved[0] = saved[0], None
+            why = resume_from(last, odom.stamp, lc.resume_within_s)
+            if why:
+                if last is not None:
+                    svc.log.info("starting at the start pose: %s", why)
+                return
+            try:
+                if isinstance(loc, MapLocaliser):
+                    f = fields.get(last.floor) or DistanceField.for_floor(site, last.floor)
+                    fields[last.floor] = f
+                    loc.reset(f, last.x, last.y, last.theta, last.floor, last.odom)
+                else:
+                    site.floor(last.floor)
+                    loc.reset(last.x, last.y, last.theta, last.floor, last.odom)
+            except SiteError as exc:
+                svc.log.warning("starting at the start pose: saved pose refused: %s", exc)
+                return
+            text = (
+                f"resumed from the pose saved at t = {last.stamp:.2f} s: "
+                f"({last.x:.2f}, {last.y:.2f}) on floor {last.floor}"
+            )
+            svc.log.info("%s", text)
+            bus.publish(
+                keys.key("events", source=NAME), Event(odom.stamp, NAME, "resumed", text, "info")
+            )
+
+        def save(odom: Odometry) -> None:
+            if odom.stamp - state["saved_at"] < lc.save_every_s and odom.stamp >= state["saved_at"]:
+                return
+            state["saved_at"] = odom.stamp
+            p = odom.pose
+            x, y, theta = loc.pose
+            store.save(SavedPose(odom.stamp, x, y, theta, loc.floor, (p.x, p.y, p.theta)).to_dict())
+
         def step(clock: Clock) -> None:
             odom = pending.pop("odom", None)
             scan = pending.pop("scan", None)
             if odom is None:
                 return
+            if saved[0] is not None:
+                resume(odom)
             if isinstance(loc, MapLocaliser):
                 loc.update_odometry(odom.pose.x, odom.pose.y, odom.pose.theta)
                 if scan is not None:
@@ -109,6 +160,7 @@ def main(argv: list[str] | None = None) -> None:
                 pose_key,
                 PoseEstimate(odom.stamp, Pose2D(x, y, theta, loc.floor), loc.covariance, lost),
             )
+            save(odom)
 
         bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, on_odom)
         bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, on_scan)

@@ -14,6 +14,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from shared.messages import NavGoal, Odometry, Twist
@@ -329,3 +330,77 @@ def test_lockstep_slips_are_reported(tmp_path) -> None:
     slips = [e for e in report["events"] if e["kind"] == "lockstep_timeout"]
     assert slips and slips[0]["source"] == "sim"
     assert "no answer from" in slips[0]["detail"]
+
+
+def test_killed_localisation_stops_the_chair_resumes_its_pose_and_the_mission_goes_on(
+    fleet,
+) -> None:
+    from shared.messages import Event, NavStatus, PoseEstimate
+
+    bus, _endpoint, sup, keys, scenario, out = fleet
+    lock = threading.Lock()
+    seen: dict[str, list] = {"pose": [], "truth": [], "cmd": [], "status": [], "events": []}
+
+    def keep(name: str):
+        def on(msg) -> None:
+            with lock:
+                seen[name].append(msg)
+
+        return on
+
+    bus.subscribe(keys.pose, PoseEstimate, keep("pose"))
+    bus.subscribe(keys.ground_truth, Odometry, keep("truth"))
+    bus.subscribe(keys.cmd_vel, Twist, keep("cmd"))
+    bus.subscribe(keys.nav_status, NavStatus, keep("status"))
+    bus.subscribe(keys.key("events", source="localisation"), Event, keep("events"))
+    bus.publish(keys.nav_goal, NavGoal(0.0, "loc-kill", None, scenario.place))
+
+    def wait_for(what, timeout: float, why: str):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with lock:
+                got = what()
+            if got:
+                return got
+            time.sleep(0.02)
+        pytest.fail(why + ":\n" + out.text()[-3000:])
+
+    wait_for(lambda: seen["truth"] and seen["truth"][-1].v > 0.3, 60, "the chair never moved")
+    old_pid = sup.pid("localisation")
+    os.kill(old_pid, signal.SIGKILL)
+    time.sleep(0.3)
+    with lock:
+        last_pose = seen["pose"][-1].stamp
+    # the controller hears no pose: it commands a stop within its pose timeout (0.5 s)
+    stop = wait_for(
+        lambda: next((c for c in seen["cmd"] if c.stamp > last_pose and c.v == 0.0), None),
+        30,
+        "no stop command after localisation died",
+    )
+    assert stop.stamp - last_pose <= 0.5 + 1.5 / scenario.config.controller.rate_hz
+    resumed = wait_for(
+        lambda: next((e for e in seen["events"] if e.kind == "resumed"), None),
+        60,
+        "the restarted localisation did not resume its pose",
+    )
+    assert sup.restarts("localisation") == 1 and sup.pid("localisation") != old_pid
+
+    def pose_error() -> list[float] | None:  # the first pose after the restart, vs truth
+        after = next((p for p in seen["pose"] if p.stamp > resumed.stamp), None)
+        truth = next((t for t in seen["truth"] if after and t.stamp >= after.stamp), None)
+        if after is None or truth is None:
+            return None
+        return [float(np.hypot(after.pose.x - truth.pose.x, after.pose.y - truth.pose.y))]
+
+    (error,) = wait_for(pose_error, 30, "no pose after the restart")
+    print(f"pose after the restart {error:.3f} m from the truth")
+    assert error < 0.05
+    done = wait_for(
+        lambda: next(
+            (s for s in seen["status"] if s.goal_id == "loc-kill" and s.state != "running"),
+            None,
+        ),
+        240,
+        "the mission did not end",
+    )
+    assert done.state == "succeeded", done.reason

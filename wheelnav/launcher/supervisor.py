@@ -7,9 +7,12 @@ fix its input); Ctrl-C or SIGTERM stops everything, children first, then the rou
 
 from __future__ import annotations
 
+import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -17,6 +20,7 @@ from typing import TextIO
 
 from shared.config import LauncherConfig, TransportConfig
 from shared.service import EXIT_CONFIG, RESTARTS_ENV, launcher_env
+from shared.state_store import STATE_DIR_ENV
 from shared.topics import Keys
 from shared.transport import Bus, open_session
 from wheelnav.launcher.backoff import Backoff, prefix
@@ -73,6 +77,10 @@ class Supervisor:
             )
             for i, s in enumerate(specs)
         }
+        # where the services keep what a restart needs (shared/state_store.py): the user's
+        # folder if the environment names one, else a fresh one for this fleet
+        self.state_dir = os.environ.get(STATE_DIR_ENV, "")
+        self._own_state = not self.state_dir
         self._stopping = threading.Event()
         self._out_lock = threading.Lock()
         self._monitor: threading.Thread | None = None
@@ -80,6 +88,8 @@ class Supervisor:
     # -- public ---------------------------------------------------------------------------
 
     def start(self) -> None:
+        if self._own_state:
+            self.state_dir = tempfile.mkdtemp(prefix="wheelnav-state-")
         for child in self._children.values():
             self._spawn(child)
         self._monitor = threading.Thread(target=self._watch, name="supervisor", daemon=True)
@@ -119,6 +129,8 @@ class Supervisor:
         for child in self._children.values():
             if child.reader is not None:
                 child.reader.join(timeout=1.0)
+        if self._own_state and self.state_dir:
+            shutil.rmtree(self.state_dir, ignore_errors=True)
 
     # -- internals ------------------------------------------------------------------------
 
@@ -131,7 +143,11 @@ class Supervisor:
 
     def _spawn(self, child: _Child) -> None:
         # the service publishes how often it was restarted (its Diagnostics)
-        env = dict(launcher_env(), PYTHONUNBUFFERED="1", **{RESTARTS_ENV: str(child.restarts)})
+        env = dict(
+            launcher_env(),
+            PYTHONUNBUFFERED="1",
+            **{RESTARTS_ENV: str(child.restarts), STATE_DIR_ENV: self.state_dir},
+        )
         child.proc = subprocess.Popen(
             self._command(child.spec),
             stdout=subprocess.PIPE,

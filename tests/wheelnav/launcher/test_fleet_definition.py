@@ -5,6 +5,7 @@ from __future__ import annotations
 import yaml
 
 from shared.config import LauncherConfig
+from shared.state_store import STATE_DIR_ENV
 from tests.conftest import ROOT
 from wheelnav.launcher.backoff import Backoff
 from wheelnav.launcher.compose import render_compose
@@ -34,7 +35,12 @@ def test_same_services_and_commands_as_the_launcher() -> None:
         local = sup._command(spec)
         container = services[spec.name]["command"]
         assert local[1:] == container[1:], spec.name  # same module, config and endpoint flags
+        # a restarted container resumes from the state its service saved, as under the
+        # launcher (which names a fresh folder per fleet)
+        folder = services[spec.name]["environment"][STATE_DIR_ENV]
+        assert f"state:{folder}" in services[spec.name]["volumes"], spec.name
         assert (ROOT / "services" / spec.module.split(".")[1] / "node.py").is_file()
+    assert "state" in compose()["volumes"]
 
 
 def test_dockerfile_installs_every_package_the_fleet_runs() -> None:
