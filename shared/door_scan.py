@@ -1,0 +1,347 @@
+"""Doorways found in one LiDAR scan: the gap between two stretches of the same wall.
+
+The method of the door-passing paper (seeds/004), made to work without knowing the door:
+
+1. ``planar_scan``: a 3-D cloud (or a planar scan) becomes one planar scan, the nearest
+   return per azimuth bin within a height band around the sensor (walls and jambs, not the
+   floor returns of the downward rings).
+2. ``segment``: the Adaptive Breakpoint Detector (Borges and Aldon) cuts the scan where
+   consecutive returns are further apart than a beam at that range could explain, then
+   Iterative End-Point Fit splits each piece into straight stretches, each fitted by
+   total least squares.
+3. ``find_doorways``: two stretches on one line (the wall either side of a doorway) whose
+   facing ends are a door's width apart, with no return on that line between them (an
+   doorway: the returns there come from beyond it). The paper matches the gap to a
+   known door width; here any gap in ``[min_width_m, max_width_m]`` is a doorway, so a
+   door that the map lacks or places wrong is found too. It is open when most beams
+   through its middle reach past a wall's thickness; a closed leaf stands in the frame
+   behind the face (one flush with the wall fills the gap: no doorway).
+
+A sighting is in the scan's frame; its centre lies on the wall face the sensor sees, its
+``normal`` points from the sensor's side through the doorway. Pure: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+BIN_DEG = 0.25  # azimuth bin of the planar scan (a VLP-16 turns 0.2 deg per return)
+BAND_M = 0.5  # the height band around the sensor kept for walls and jambs
+ABD_LAMBDA_DEG = 10.0  # the breakpoint detector's worst incidence angle on a surface
+RANGE_SIGMA_M = 0.01  # range noise (the detector adds three of it)
+SPLIT_M = 0.03  # a point this far from the chord splits a stretch (Iterative End-Point Fit)
+MIN_POINTS = 5  # fewest returns in a stretch of wall
+MIN_LENGTH_M = 0.15  # shortest stretch of wall
+ON_LINE_M = 0.04  # a return this near the wall's line is on it
+PARALLEL_DEG = 8.0  # the two stretches of one wall differ in direction by at most this
+JAMB_M = 0.1  # returns this near a jamb (its corner, the reveal behind it) are the jamb's
+REVEAL_M = 0.02  # a reveal's returns lie this near its jamb's line through the wall
+STEP_M = 0.06  # returns of one wall face are closer together than this
+MAX_DEPTH_M = 0.5  # the thickest wall a reveal is looked for in
+
+
+@dataclass(frozen=True)
+class Stretch:
+    """A straight stretch of returns: its two ends, unit direction (from ``a`` to ``b``),
+    unit normal (towards the sensor) and the rms distance of its returns from the line."""
+
+    a: np.ndarray
+    b: np.ndarray
+    direction: np.ndarray
+    normal: np.ndarray
+    rms: float
+    count: int
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.b - self.a))
+
+
+@dataclass(frozen=True)
+class Doorway:
+    """One doorway seen in a scan: its two jamb corners, centre, width, the wall's unit
+    direction (from ``left`` to ``right`` jamb) and the unit normal through the doorway,
+    away from the sensor."""
+
+    left: np.ndarray
+    right: np.ndarray
+    centre: np.ndarray
+    width: float
+    direction: np.ndarray
+    normal: np.ndarray
+    depth: float | None = None  # the wall's thickness, where a reveal was seen
+    open: bool = True  # False: a leaf stands in the frame
+
+    @property
+    def plane_centre(self) -> np.ndarray:
+        """The middle of the doorway in the wall's thickness (a site's door line), where
+        the reveal showed it; else on the face, as ``centre``."""
+        return self.centre if self.depth is None else self.centre + self.normal * self.depth / 2
+
+
+def planar_scan(points: np.ndarray, band_m: float = BAND_M, bin_deg: float = BIN_DEG) -> np.ndarray:
+    """(M, 2) returns ordered by azimuth: the nearest per ``bin_deg`` bin of the points
+    (N, 2 or 3; sensor frame) within ``band_m`` of the sensor's height."""
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] < 2:
+        raise ValueError(f"points must be (N, 2) or (N, 3), got shape {pts.shape}")
+    if pts.shape[1] > 2:
+        pts = pts[np.abs(pts[:, 2]) < band_m]
+    xy = pts[:, :2]
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    xy, r = xy[r > 1e-6], r[r > 1e-6]
+    if len(xy) == 0:
+        return np.zeros((0, 2))
+    bins = np.floor((np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) + 180.0) / bin_deg).astype(int)
+    order = np.lexsort((r, bins))  # by bin, nearest first
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = bins[order][1:] != bins[order][:-1]
+    return xy[order[first]]
+
+
+def _breaks(xy: np.ndarray, bin_deg: float) -> list[np.ndarray]:
+    """Adaptive Breakpoint Detector: runs of returns with no jump a beam cannot explain."""
+    if len(xy) < 2:
+        return [xy] if len(xy) else []
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    dphi = np.abs(np.diff(np.unwrap(np.arctan2(xy[:, 1], xy[:, 0]))))
+    lam = math.radians(ABD_LAMBDA_DEG)
+    dphi = np.clip(dphi, math.radians(bin_deg) * 0.5, lam * 0.9)
+    d_max = r[:-1] * np.sin(dphi) / np.sin(lam - dphi) + 3 * RANGE_SIGMA_M
+    jump = np.linalg.norm(np.diff(xy, axis=0), axis=1) > d_max
+    cuts = np.flatnonzero(jump) + 1
+    return [p for p in np.split(xy, cuts) if len(p)]
+
+
+def _split(xy: np.ndarray) -> list[np.ndarray]:
+    """Iterative End-Point Fit: split at the return furthest from the chord while it is
+    further than ``SPLIT_M``."""
+    if len(xy) < 3:
+        return [xy]
+    a, b = xy[0], xy[-1]
+    chord = b - a
+    n = np.linalg.norm(chord)
+    if n < 1e-9:
+        d = np.linalg.norm(xy - a, axis=1)
+    else:
+        d = np.abs(chord[0] * (xy[:, 1] - a[1]) - chord[1] * (xy[:, 0] - a[0])) / n
+    i = int(np.argmax(d))
+    if d[i] <= SPLIT_M or i in (0, len(xy) - 1):
+        return [xy]
+    return _split(xy[: i + 1]) + _split(xy[i:])
+
+
+def _fit(xy: np.ndarray) -> Stretch:
+    """Total least squares line through the returns; ends are the extreme projections."""
+    mean = xy.mean(axis=0)
+    _, _, vt = np.linalg.svd(xy - mean, full_matrices=False)
+    direction = vt[0]
+    if np.dot(direction, xy[-1] - xy[0]) < 0:
+        direction = -direction
+    normal = np.array([-direction[1], direction[0]])
+    if np.dot(normal, mean) > 0:  # towards the sensor (the origin)
+        normal = -normal
+    along = (xy - mean) @ direction
+    off = (xy - mean) @ normal
+    a, b = mean + along.min() * direction, mean + along.max() * direction
+    return Stretch(a, b, direction, normal, float(np.sqrt(np.mean(off**2))), len(xy))
+
+
+def segment(scan_xy: np.ndarray, bin_deg: float = BIN_DEG) -> list[Stretch]:
+    """The straight stretches of a planar scan (ordered by azimuth) long enough for walls."""
+    out = []
+    for run in _breaks(scan_xy, bin_deg):
+        for piece in _split(run):
+            if len(piece) >= MIN_POINTS:
+                s = _fit(piece)
+                if s.length >= MIN_LENGTH_M:
+                    out.append(s)
+    return out
+
+
+def find_doorways(
+    points: np.ndarray,
+    min_width_m: float = 0.6,
+    max_width_m: float = 1.6,
+    band_m: float = BAND_M,
+) -> list[Doorway]:
+    """Every doorway in one scan (N, 2 or 3 points, sensor frame), nearest first."""
+    scan = planar_scan(points, band_m)
+    stretches = segment(scan)
+    found: list[Doorway] = []
+    cos_par = math.cos(math.radians(PARALLEL_DEG))
+    for i, first in enumerate(stretches):
+        for second in stretches[i + 1 :]:
+            if abs(float(np.dot(first.direction, second.direction))) < cos_par:
+                continue
+            # the longer stretch is the wall's line (a short one's direction is not good
+            # enough to reach across a doorway); the other's facing end must lie on it
+            s, t = (first, second) if first.length >= second.length else (second, first)
+            d = s.direction
+            s_ends = sorted(float(np.dot(p - s.a, d)) for p in (s.a, s.b))
+            t_ends = sorted((float(np.dot(p - s.a, d)), k) for k, p in enumerate((t.a, t.b)))
+            if t_ends[0][0] >= s_ends[1]:
+                lo, (hi, k) = s_ends[1], t_ends[0]
+            elif s_ends[0] >= t_ends[1][0]:
+                (lo, k), hi = t_ends[1], s_ends[0]
+            else:
+                continue  # overlapping: one wall, no gap
+            if abs(float(np.dot((t.a, t.b)[k] - s.a, s.normal))) > ON_LINE_M:
+                continue
+            width = hi - lo
+            if not min_width_m <= width <= max_width_m:
+                continue
+            along = (scan - s.a) @ d
+            off = (scan - s.a) @ s.normal
+            on_line = np.abs(off) < ON_LINE_M
+            # the jambs: follow the wall's returns from each stretch's end towards the
+            # other while they are close together (a fit ends short of a corner where the
+            # reveal bends away); a closed leaf flush with the wall closes the gap
+            wall = np.sort(along[on_line & (along > lo - JAMB_M) & (along < hi + JAMB_M)])
+            lo, hi = _follow(wall, lo, +1), _follow(wall, hi, -1)
+            width = hi - lo
+            if not min_width_m <= width <= max_width_m:
+                continue
+            if np.any(on_line & (along > lo + REVEAL_M) & (along < hi - REVEAL_M)):
+                continue  # something on the wall's line in the gap: a leaf, a post
+            beyond = off < -ON_LINE_M
+            if not np.any(beyond):
+                continue
+            # where the beams to returns beyond the wall cross its line (the sensor is at
+            # the origin): some must cross in the gap, else it is a gap in the returns
+            c = float(np.dot(s.normal, s.a))
+            cross = scan[beyond] * (c / (scan[beyond] @ s.normal))[:, None]
+            through = (cross - s.a) @ d
+            if not np.any((through > lo + REVEAL_M) & (through < hi - REVEAL_M)):
+                continue
+            # open: most beams through the gap's middle half reach past a wall's thickness
+            # (a closed leaf stands in the frame, a few cm behind the face; an open hinged
+            # one stands at a jamb)
+            middle = (through > lo + width / 4) & (through < hi - width / 4)
+            is_open = (
+                bool(np.mean(-off[beyond][middle] > MAX_DEPTH_M) >= 0.5) if middle.any() else True
+            )
+            left, right = s.a + lo * d, s.a + hi * d
+            centre = (left + right) / 2
+            depth = _reveal_depth(along, off, lo, hi)
+            found.append(Doorway(left, right, centre, width, d.copy(), -s.normal, depth, is_open))
+    found.sort(key=lambda w: float(np.linalg.norm(w.centre)))
+    return _distinct(found)
+
+
+def _follow(wall: np.ndarray, end: float, step: int) -> float:
+    """From ``end``, along sorted positions ``wall`` in direction ``step`` (+1 up, -1
+    down), while consecutive returns are less than ``STEP_M`` apart."""
+    values = wall if step > 0 else wall[::-1]
+    for v in values:
+        if (v - end) * step <= 0:
+            continue
+        if (v - end) * step > STEP_M:
+            break
+        end = float(v)
+    return end
+
+
+def _reveal_depth(along: np.ndarray, off: np.ndarray, lo: float, hi: float) -> float | None:
+    """The wall's thickness from a jamb's reveal: the deepest return beyond the face
+    within ``REVEAL_M`` of a jamb's line (None if no reveal shows)."""
+    at_jamb = (np.abs(along - lo) < REVEAL_M) | (np.abs(along - hi) < REVEAL_M)
+    depth = -off[at_jamb & (off < -ON_LINE_M) & (off > -MAX_DEPTH_M)]
+    return float(depth.max()) if len(depth) >= MIN_POINTS else None
+
+
+def _distinct(doorways: list[Doorway]) -> list[Doorway]:
+    """One sighting per doorway: a wall seen as several stretches gives the same gap twice."""
+    out: list[Doorway] = []
+    for w in doorways:
+        if all(np.linalg.norm(w.centre - o.centre) > 0.2 for o in out):
+            out.append(w)
+    return out
+
+
+@dataclass(frozen=True)
+class DoorEstimate:
+    """A doorway fused over scans, in the map frame: its centre in the wall's thickness
+    (on the face until a reveal has shown the thickness), width, the wall's unit direction,
+    the unit normal (away from where it was first seen), the thickness (None: not seen),
+    how many sightings made it, the standard error of the centre (m) and whether it is
+    open."""
+
+    centre: np.ndarray
+    width: float
+    direction: np.ndarray
+    normal: np.ndarray
+    depth: float | None
+    sightings: int
+    sigma_m: float
+    open: bool = True  # as the latest sighting saw it (a door opens and closes)
+
+
+class DoorTracker:
+    """Fuses doorway sightings from scan after scan into door estimates on the map.
+
+    A sighting joins the estimate whose face centre is within ``join_m`` and whose wall
+    runs the same way; the estimate is the mean of its sightings (jambs, thickness), and
+    its uncertainty the spread of their centres over the square root of their number.
+    """
+
+    def __init__(self, join_m: float = 0.3) -> None:
+        self.join_m = join_m
+        self._tracks: list[dict] = []
+
+    def add(self, doorways: list[Doorway], pose: tuple[float, float, float]) -> None:
+        """Add one scan's sightings, taken with the sensor at map ``pose`` (x, y, theta)."""
+        x, y, t = pose
+        rot = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
+        origin = np.array([x, y])
+        for w in doorways:
+            left, right = origin + rot @ w.left, origin + rot @ w.right
+            normal = rot @ w.normal
+            track = self._match((left + right) / 2, right - left)
+            if track is None:
+                track = {"normal": normal, "left": [], "right": [], "depth": []}
+                self._tracks.append(track)
+            n = track["normal"]
+            if np.dot(right - left, [-n[1], n[0]]) < 0:
+                left, right = right, left  # the same jamb order in every sighting
+            track["left"].append(left)
+            track["right"].append(right)
+            if w.depth is not None:
+                track["depth"].append(w.depth)
+            track["open"] = w.open
+
+    def _match(self, centre: np.ndarray, span: np.ndarray) -> dict | None:
+        for track in self._tracks:
+            c = (np.mean(track["left"], axis=0) + np.mean(track["right"], axis=0)) / 2
+            n = track["normal"]
+            along = abs(float(np.dot(span, [n[1], -n[0]]))) / max(np.linalg.norm(span), 1e-9)
+            if np.linalg.norm(c - centre) <= self.join_m and along > math.cos(0.3):
+                return track
+        return None
+
+    def estimates(self) -> list[DoorEstimate]:
+        """Every doorway seen so far, the most often seen first."""
+        out = []
+        for track in self._tracks:
+            left, right = np.mean(track["left"], axis=0), np.mean(track["right"], axis=0)
+            span = right - left
+            width = float(np.linalg.norm(span))
+            direction = span / max(width, 1e-9)
+            normal = np.array([direction[1], -direction[0]])
+            if np.dot(normal, track["normal"]) < 0:
+                normal = -normal
+            depth = float(np.mean(track["depth"])) if track["depth"] else None
+            centre = (left + right) / 2 + (0.0 if depth is None else depth / 2) * normal
+            centres = (np.array(track["left"]) + np.array(track["right"])) / 2
+            n = len(centres)
+            spread = float(np.sqrt(np.mean(np.sum((centres - centres.mean(axis=0)) ** 2, 1))))
+            sigma = spread / math.sqrt(n)
+            out.append(
+                DoorEstimate(centre, width, direction, normal, depth, n, sigma, track["open"])
+            )
+        out.sort(key=lambda e: -e.sightings)
+        return out

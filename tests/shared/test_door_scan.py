@@ -1,0 +1,47 @@
+"""The scan segmentation under the doorway finder, on drawn scans (pure geometry)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from shared.door_scan import find_doorways, planar_scan, segment
+
+
+def _cast(
+    walls: list[tuple[tuple[float, float], tuple[float, float]]], n: int = 1440
+) -> np.ndarray:
+    """A planar scan from the origin against segments: the nearest hit per beam."""
+    out = []
+    for a in np.linspace(-np.pi, np.pi, n, endpoint=False):
+        d = np.array([np.cos(a), np.sin(a)])
+        best = np.inf
+        for p, q in walls:
+            p, q = np.array(p), np.array(q)
+            m = np.array([d, p - q]).T
+            if abs(np.linalg.det(m)) < 1e-12:
+                continue
+            t, u = np.linalg.solve(m, p)
+            if t > 0 and 0 <= u <= 1:
+                best = min(best, t)
+        if np.isfinite(best):
+            out.append(d * best)
+    return np.array(out)
+
+
+def test_nearest_return_per_bin_in_the_height_band() -> None:
+    pts = np.array([[2.0, 0.0, 0.0], [1.0, 0.0, 0.1], [3.0, 0.0, 2.0], [np.nan, 0, 0]])
+    assert planar_scan(pts).tolist() == [[1.0, 0.0]]
+
+
+def test_a_corner_is_two_stretches_and_a_wall_with_a_gap_is_a_doorway() -> None:
+    corner = _cast([((2, -2), (2, 2)), ((2, 2), (-2, 2))])
+    assert len(segment(planar_scan(corner))) == 2
+    # a wall at x = 2 with a 0.9 m gap, a room beyond it (x = 5)
+    walls = [((2, -3), (2, 0.0)), ((2, 0.9), (2, 3)), ((5, -3), (5, 3))]
+    (door,) = find_doorways(_cast(walls))
+    assert abs(door.width - 0.9) < 0.02 and np.allclose(door.centre, [2.0, 0.45], atol=0.02)
+    assert door.open and np.allclose(door.normal, [1.0, 0.0], atol=0.01)
+    # the same gap with a leaf 5 cm behind the face: closed; a 2 m gap: no door
+    closed = find_doorways(_cast([*walls, ((2.05, 0.0), (2.05, 0.9))]))
+    assert len(closed) == 1 and not closed[0].open
+    assert find_doorways(_cast([((2, -3), (2, 0.0)), ((2, 2.0), (2, 3)), ((5, -3), (5, 3))])) == []
