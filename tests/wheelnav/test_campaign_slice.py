@@ -3,8 +3,8 @@
 The full campaign (docs/campaign.md) takes about half an hour per 50 missions and is run
 by hand; this slice runs a few of its missions on the real fleet (lockstep, Zenoh on
 loopback, pybullet) so a change that breaks generated buildings shows in `make test`.
-It also shows the campaign resumes: a second run finds every row stored. The clearance
-limits of issue 13 are not asserted yet: b0.m02 passes a wall at 4.1 cm (limit 5 cm).
+It also shows the campaign resumes: a second run finds every row stored, and holds the
+clearance limits of issue 13 (5 cm away from doors, centred in openings).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ def test_a_slice_of_the_campaign_runs_as_expected_and_resumes(tmp_path: Path) ->
     for mid, row in rows.items():
         assert row["as_expected"], f"{mid}: {row['outcome']} ({row['reason']})"
         assert row["collisions"] == 0, mid
+        assert row["clearance_ok"], f"{mid}: {row['min_clearance_away_m']} {row['tight_doors']}"
         report = json.loads(Path(row["report"]).read_text())  # the whole report is kept
         assert report["scenario"].endswith(Path(row["scenario"]).stem), mid
         assert report["collisions"] == row["collisions"] and report["events"], mid
