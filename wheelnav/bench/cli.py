@@ -11,6 +11,7 @@ BENCHES = {
     "mpc": ("wheelnav.bench.mpc", "MPC cycle time, 1000 x 21 and 2000 x 56"),
     "sim": ("wheelnav.bench.sim", "real-time factor with the 3D LiDAR, ray casting per scan"),
     "fleet": ("wheelnav.bench.fleet", "the whole fleet's real-time factor in lockstep, per tick"),
+    "doors": ("wheelnav.bench.doors", "the narrow-door campaign: one door, random starts"),
 }
 
 

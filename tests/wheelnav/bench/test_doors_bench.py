@@ -1,0 +1,60 @@
+"""The narrow-door bench's geometry and measurements (the runs themselves are by hand)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from shared.config import RobotConfig
+from shared.site import load_site
+from wheelnav.bench.doors import (
+    WALL_X,
+    crossing,
+    door_site,
+    draw_start,
+    footprint_corners,
+    measure,
+    summarise,
+)
+
+ROBOT = RobotConfig()
+
+
+def test_the_site_has_the_door_where_the_map_has_its_gap(tmp_path) -> None:
+    site = load_site(door_site(tmp_path, 0.8, "hinged", 3.1, "left"))
+    (door,) = site.doors
+    assert door.width_m == pytest.approx(0.8) and door.motion == "hinged"
+    grid = site.floors["1"].map
+    occ = grid.occupied(True)
+    assert not occ[grid.to_cell(WALL_X, 3.1)] and occ[grid.to_cell(WALL_X, 3.1 + 0.45)]
+
+
+def test_starts_are_2_to_7_m_before_the_door_and_clear_of_the_walls() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        x, y, theta = draw_start(rng, ROBOT)
+        assert 2.0 <= WALL_X - x <= 7.0
+        corners = footprint_corners(x, y, theta, ROBOT)
+        assert corners.min() >= 0.2 - 1e-9 and corners[:, 0].max() <= WALL_X - 0.2 + 1e-9
+
+
+def test_the_door_plane_crossing_is_taken_at_the_body_centre() -> None:
+    ahead = (ROBOT.footprint.front - ROBOT.footprint.rear) / 2
+    # driving along y = 3.12 at 0.2 m/s, heading 0: the body centre is ahead of the axle
+    trace = [{"t": t, "x": 6.0 + 0.2 * t, "y": 3.12, "theta": 0.0} for t in np.arange(0, 20, 0.25)]
+    at = crossing(trace, ROBOT, WALL_X)
+    assert at["t"] == pytest.approx((WALL_X - ahead - 6.0) / 0.2) and at["y"] == pytest.approx(3.12)
+    report = {
+        "success": True,
+        "trace": trace,
+        "door_clearance": [{"door": "door", "min_clearance_m": 0.06, "free_width_m": 0.875}],
+    }
+    row = measure(report, 3.1, 0.9, ROBOT)
+    assert row["passed"] and row["lateral_m"] == pytest.approx(0.02) and row["heading_deg"] == 0
+    assert row["time_s"] == pytest.approx((WALL_X + 1.0 - ahead - 6.0) / 0.2, abs=0.01)
+    s = summarise([row, {**row, "lateral_m": -0.04, "passed": False}])
+    assert s["passed"] == 1 and s["lateral_max_m"] == 0.04
+    assert s["lateral_rms_m"] == pytest.approx(math.sqrt((0.02**2 + 0.04**2) / 2), abs=1e-4)
+    assert crossing(trace[:3], ROBOT, WALL_X) is None  # never got there

@@ -1,0 +1,248 @@
+"""``wheelnav bench doors``: the narrow-door campaign (issue 14), one door at a time.
+
+One door of width W in a straight wall between two rooms, hinged (its leaf swinging to a
+seeded side: into the approach room or away from it) or sliding; the chair's reference
+point starts 2-7 m before the door plane wherever its footprint keeps 10 cm from the walls,
+heading uniform, and is sent to a place 2.5 m past the door. Each run is a whole mission on
+the fleet in lockstep (as ``wheelnav mission`` runs it); from the simulator's truth (the
+report's trace) it measures, where the chair's body centre crosses the door plane, the
+lateral offset from the true door centre and the heading off the door's normal, the least
+clearance in the opening, and the time from the start until the body centre is 1 m past
+the door. A table row per width and door kind gives pass rate, collisions, offsets (RMS
+and max), heading RMS, least clearance against the opening's limit and the median time.
+
+The door procedure measured is whatever the fleet config selects (today stop-turn-go);
+the mapped door is where the door is (the perturbed map of the issue comes with maps that
+differ from the world).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import yaml
+
+from shared.config import RobotConfig
+from sim.sitegen import draw, write_map
+from wheelnav.campaign.results import door_requirement_m
+
+WIDTHS = (0.80, 0.90, 1.00)
+KINDS = ("hinged", "sliding")
+WALL_X = 8.0  # the door's wall: x from 7.9 to 8.1; the approach room is x < 7.9
+ROOM = (8.0, 8.0)  # the approach room's size (x, y); the room past the door is 5 m deep
+WALL_M = 0.2
+START_M = (2.0, 7.0)  # the reference point's distance before the door plane
+KEEP_M = 0.1  # the footprint's least distance from a wall at the start
+GOAL_PAST_M = 2.5
+PAST_M = 1.0  # the time is taken until the body centre is this far past the door plane
+
+
+def door_site(folder: Path, width: float, kind: str, door_y: float, swing: str) -> Path:
+    """Draw the two rooms with the door (centred at ``door_y`` on the wall) into
+    ``folder``; returns the site.yaml path."""
+    w, h, t = WALL_X + 5.0, ROOM[1], WALL_M
+    walls = [(0, 0, w, t), (0, h - t, w, h), (0, 0, t, h), (w - t, 0, w, h)]
+    walls.append((WALL_X - t / 2, 0, WALL_X + t / 2, h))
+    gaps = [(WALL_X - t / 2, door_y - width / 2, WALL_X + t / 2, door_y + width / 2)]
+    write_map(draw((w, h), walls, gaps), folder, "floor1")
+    door = {
+        "id": "door",
+        "floor": "1",
+        "p1": [WALL_X, round(door_y - width / 2, 3)],
+        "p2": [WALL_X, round(door_y + width / 2, 3)],
+        "type": "manual",
+        "motion": kind,
+    }
+    if kind == "hinged":
+        door["swing"] = swing
+    site = {
+        "name": f"door_{width:.2f}_{kind}",
+        "floors": [{"name": "1", "elevation": 0.0, "map": "floor1.yaml"}],
+        "doors": [door],
+        "places": {"beyond": {"floor": "1", "x": WALL_X + GOAL_PAST_M, "y": door_y, "theta": 0.0}},
+    }
+    path = folder / "site.yaml"
+    path.write_text(yaml.safe_dump(site, sort_keys=False))
+    return path
+
+
+def footprint_corners(x: float, y: float, theta: float, robot: RobotConfig) -> np.ndarray:
+    """The footprint's four corners (4, 2) at pose (x, y, theta)."""
+    fp = robot.footprint
+    body = np.array(
+        [[fp.front, fp.width / 2], [fp.front, -fp.width / 2], [-fp.rear, -fp.width / 2]]
+        + [[-fp.rear, fp.width / 2]]
+    )
+    c, s = math.cos(theta), math.sin(theta)
+    return body @ np.array([[c, s], [-s, c]]) + [x, y]
+
+
+def draw_start(rng: np.random.Generator, robot: RobotConfig) -> tuple[float, float, float]:
+    """A start 2-7 m before the door plane, any heading, the footprint 10 cm off walls."""
+    lo, hi = WALL_M / 2 + KEEP_M, ROOM[1] - WALL_M / 2 - KEEP_M
+    for _ in range(10_000):
+        x = WALL_X - rng.uniform(*START_M)
+        pose = (float(x), float(rng.uniform(lo, hi)), float(rng.uniform(-math.pi, math.pi)))
+        corners = footprint_corners(*pose, robot)
+        inside = corners.min() >= lo and corners[:, 1].max() <= hi
+        if inside and corners[:, 0].max() <= WALL_X - WALL_M / 2 - KEEP_M:
+            return pose
+    raise RuntimeError("no start pose fits the approach room")
+
+
+def crossing(trace: list[dict], robot: RobotConfig, plane_x: float) -> dict | None:
+    """Where the body centre first crosses x = ``plane_x`` going forward: its y, the
+    heading and the time, interpolated between trace samples (None if it never does)."""
+    ahead = (robot.footprint.front - robot.footprint.rear) / 2
+    prev = None
+    for p in trace:
+        cx = p["x"] + ahead * math.cos(p["theta"])
+        cy = p["y"] + ahead * math.sin(p["theta"])
+        if prev is not None and prev[1] < plane_x <= cx:
+            f = (plane_x - prev[1]) / (cx - prev[1])
+            dtheta = math.atan2(math.sin(p["theta"] - prev[3]), math.cos(p["theta"] - prev[3]))
+            return {
+                "t": prev[0] + f * (p["t"] - prev[0]),
+                "y": prev[2] + f * (cy - prev[2]),
+                "theta": prev[3] + f * dtheta,
+            }
+        prev = (p["t"], cx, cy, p["theta"])
+    return None
+
+
+def measure(report: dict, door_y: float, width: float, robot: RobotConfig) -> dict[str, Any]:
+    """One run's figures from its report (truth trace, door clearance)."""
+    at = crossing(report.get("trace", []), robot, WALL_X)
+    past = crossing(report.get("trace", []), robot, WALL_X + PAST_M)
+    seen = next((d for d in report.get("door_clearance", []) if d["door"] == "door"), None)
+    free = (seen or {}).get("free_width_m") or width
+    return {
+        "passed": bool(report["success"]) and at is not None,
+        "collisions": report.get("collisions", 0),
+        "lateral_m": None if at is None else round(at["y"] - door_y, 4),
+        "heading_deg": None if at is None else round(math.degrees(at["theta"]), 2),
+        "clearance_m": None if seen is None else seen["min_clearance_m"],
+        "required_m": round(door_requirement_m(free, robot.footprint.width), 4),
+        "time_s": None if past is None else round(past["t"], 2),
+        "reason": report.get("reason", ""),
+    }
+
+
+def summarise(runs: list[dict]) -> dict[str, Any]:
+    """A table row for the runs of one width and door kind."""
+    lat = [abs(r["lateral_m"]) for r in runs if r["lateral_m"] is not None]
+    head = [abs(r["heading_deg"]) for r in runs if r["heading_deg"] is not None]
+    clear = [r["clearance_m"] for r in runs if r["clearance_m"] is not None]
+    times = [r["time_s"] for r in runs if r["time_s"] is not None]
+
+    def rms(v: list[float]) -> float | None:
+        return round(math.sqrt(sum(x * x for x in v) / len(v)), 4) if v else None
+
+    return {
+        "runs": len(runs),
+        "passed": sum(r["passed"] for r in runs),
+        "collisions": sum(r["collisions"] for r in runs),
+        "lateral_rms_m": rms(lat),
+        "lateral_max_m": max(lat) if lat else None,
+        "heading_rms_deg": rms(head),
+        "min_clearance_m": min(clear) if clear else None,
+        "clearance_short": sum(
+            r["clearance_m"] is not None and r["clearance_m"] < r["required_m"] for r in runs
+        ),
+        "median_time_s": round(statistics.median(times), 2) if times else None,
+    }
+
+
+def run_bench(
+    starts: int, seed: int, widths: tuple[float, ...], kinds: tuple[str, ...], out: TextIO
+) -> dict[str, Any]:
+    """Run every start for every width and kind; progress on ``out``; the figures."""
+    from wheelnav.mission.run import MissionRun  # the fleet: only when running
+    from wheelnav.mission.scenario import load_scenario
+
+    robot = RobotConfig()
+    rng = np.random.default_rng(seed)
+    rows: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory(prefix="wheelnav-doors-") as tmp:
+        for width in widths:
+            for kind in kinds:
+                runs = []
+                for i in range(starts):
+                    door_y = float(rng.uniform(2.5, ROOM[1] - 2.5))
+                    swing = str(rng.choice(["left", "right"]))  # left: into the approach room
+                    folder = Path(tmp) / f"{width:.2f}_{kind}_{i}"
+                    door_site(folder, width, kind, door_y, swing)
+                    x, y, theta = draw_start(rng, robot)
+                    scenario = folder / "scenario.yaml"
+                    scenario.write_text(
+                        yaml.safe_dump(
+                            {
+                                "name": f"door_{width:.2f}_{kind}_{i}",
+                                "site": "site.yaml",
+                                "seed": seed + i,
+                                "time_limit_s": 120.0,
+                                "start": {"x": x, "y": y, "theta": theta, "floor": "1"},
+                                "goal": {"place": "beyond"},
+                            }
+                        )
+                    )
+                    report = MissionRun(load_scenario(scenario), quiet=True).run()
+                    row = measure(report, door_y, width, robot)
+                    row.update(start=[round(x, 3), round(y, 3), round(theta, 3)], swing=swing)
+                    runs.append(row)
+                    print(
+                        f"{width:.2f} m {kind} {i + 1}/{starts}: "
+                        + ("passed" if row["passed"] else f"FAILED ({row['reason']})")
+                        + f", lateral {row['lateral_m']} m, heading {row['heading_deg']} deg",
+                        file=out,
+                        flush=True,
+                    )
+                rows[f"{width:.2f} {kind}"] = {"summary": summarise(runs), "runs": runs}
+    return {"seed": seed, "starts": starts, "procedure": "as configured", "rows": rows}
+
+
+def format_table(result: dict[str, Any]) -> str:
+    """The rows side by side, one line per width and kind."""
+    head = (
+        f"{'door':14s} {'passed':>8s} {'coll':>5s} {'lat rms':>8s} {'lat max':>8s} "
+        f"{'head rms':>9s} {'min clr':>8s} {'short':>6s} {'t med':>7s}"
+    )
+    lines = [head]
+
+    def f(v: Any, fmt: str) -> str:
+        return "-" if v is None else format(v, fmt)
+
+    for name, row in result["rows"].items():
+        s = row["summary"]
+        lines.append(
+            f"{name:14s} {s['passed']:>4d}/{s['runs']:<3d} {s['collisions']:>5d} "
+            f"{f(s['lateral_rms_m'], '8.3f')} {f(s['lateral_max_m'], '8.3f')} "
+            f"{f(s['heading_rms_deg'], '9.2f')} {f(s['min_clearance_m'], '8.3f')} "
+            f"{s['clearance_short']:>6d} {f(s['median_time_s'], '7.1f')}"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None, out: TextIO = sys.stdout) -> int:
+    p = argparse.ArgumentParser(prog="wheelnav bench doors", description=__doc__.splitlines()[0])
+    p.add_argument("--starts", type=int, default=20, help="starts per width and kind")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--widths", type=float, nargs="+", default=list(WIDTHS))
+    p.add_argument("--kinds", nargs="+", choices=KINDS, default=list(KINDS))
+    p.add_argument("--json", type=Path, help="write the runs and the table's figures here")
+    args = p.parse_args(argv)
+    if args.starts < 1:
+        p.error("--starts: must be at least 1")
+    result = run_bench(args.starts, args.seed, tuple(args.widths), tuple(args.kinds), sys.stderr)
+    print(format_table(result), file=out)
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1))
+    return 0
