@@ -404,3 +404,49 @@ def test_killed_localisation_stops_the_chair_resumes_its_pose_and_the_mission_go
         "the mission did not end",
     )
     assert done.state == "succeeded", done.reason
+
+
+@pytest.mark.parametrize("service", ["planner", "building"])
+def test_a_killed_service_off_the_control_path_is_restarted_and_the_mission_succeeds(
+    fleet, service
+) -> None:
+    from shared.messages import NavStatus
+
+    bus, _endpoint, sup, keys, scenario, out = fleet
+    lock = threading.Lock()
+    truth: list[Odometry] = []
+    status: list[NavStatus] = []
+
+    def on_truth(msg: Odometry) -> None:
+        with lock:
+            truth.append(msg)
+
+    def on_status(msg: NavStatus) -> None:
+        with lock:
+            status.append(msg)
+
+    bus.subscribe(keys.ground_truth, Odometry, on_truth)
+    bus.subscribe(keys.nav_status, NavStatus, on_status)
+    bus.publish(keys.nav_goal, NavGoal(0.0, f"kill-{service}", None, scenario.place))
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        with lock:
+            if truth and truth[-1].v > 0.3:
+                break
+        time.sleep(0.02)
+    else:
+        pytest.fail("the chair never moved:\n" + out.text()[-3000:])
+    old_pid = sup.pid(service)
+    os.kill(old_pid, signal.SIGKILL)
+    deadline = time.monotonic() + 240
+    done = None
+    while time.monotonic() < deadline and done is None:
+        with lock:
+            done = next(
+                (s for s in status if s.goal_id == f"kill-{service}" and s.state != "running"),
+                None,
+            )
+        time.sleep(0.05)
+    assert done is not None, "the mission did not end:\n" + out.text()[-3000:]
+    assert done.state == "succeeded", done.reason
+    assert sup.restarts(service) == 1 and sup.pid(service) not in (None, old_pid)
