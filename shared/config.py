@@ -378,6 +378,9 @@ class NavigatorConfig:
     # often (the building's sessions are leases, building.lift_session_lease_s and
     # building.door_session_lease_s); keep it well under those leases
     lease_renew_s: float = field(default=10.0, metadata=check(_positive))
+    # restarted by the launcher, it takes up the mission it saved if that save is at most
+    # this old (services/navigator/resume.py)
+    resume_within_s: float = field(default=30.0, metadata=check(_positive))
     max_replans: int = field(default=3, metadata=check(_non_negative))
     safety_timeout_s: float = field(default=60.0, metadata=check(_positive))
     # recoveries: held (obstacle, blocked) this long, back up, turn in place, re-plan

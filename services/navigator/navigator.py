@@ -29,6 +29,7 @@ from behaviours.motion import FollowPath
 from behaviours.recovery import create_recovery_tree
 from behaviours.snapshot import signature, snapshot
 from services.navigator.leases import Leases
+from services.navigator.resume import MissionRecord
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
     TERMINAL_STATES,
@@ -106,6 +107,7 @@ class Navigator:
         self.recovering = False  # the recovery tree runs (between a hold and a re-plan)
         self.around_marks = False  # the plan tree runs a re-plan around marked points
         self.fallbacks: list[str] = []
+        self.avoided: list[str] = []  # checkpoints given up on in this mission
         self._steps_of: list[py_trees.behaviour.Behaviour] = []
         self._last_sent: tuple | None = None
         self._last_sent_at = -1e9
@@ -125,6 +127,29 @@ class Navigator:
     ) -> Navigator:
         """A navigator with the fleet config's navigator section, door speed and footprint."""
         return cls(cfg.navigator, EntryParams.from_config(cfg), fleet, out, log)
+
+    def avoid(self, checkpoint_id: str) -> None:
+        """Plan around ``checkpoint_id`` (a door or lift that failed) for this mission."""
+        self.fleet.avoid(checkpoint_id)
+        if checkpoint_id not in self.avoided:
+            self.avoided.append(checkpoint_id)
+
+    def record(self) -> MissionRecord | None:
+        """The mission as a restarted navigator would take it up (None: none yet)."""
+        s = self.status
+        if not s.goal_id:
+            return None
+        g = self.bb.goal
+        goal = None if g is None else (g.x, g.y, g.theta, g.floor)
+        return MissionRecord(
+            self.fleet.now(),
+            s.goal_id,
+            goal,
+            self.bb.place or "",
+            s.state,
+            str(s.phase),
+            list(self.avoided),
+        )
 
     @property
     def running(self) -> bool:
@@ -147,6 +172,7 @@ class Navigator:
         self.bb.phase, self.bb.blocked, self.bb.recover = Phase.IDLE, "", ""
         self._release_held()  # a mission replaced: its session ends before the next
         self.fleet.new_mission(msg.goal_id)
+        self.avoided = []
         self.replans = 0
         self.recoveries = 0
         self.fallbacks = []
@@ -221,7 +247,7 @@ class Navigator:
         if not self.driving or not blocked or self.replans >= self.cfg.max_replans:
             return False
         self.replans += 1
-        self.fleet.avoid(blocked)
+        self.avoid(blocked)
         self.log.warning(
             "%s failed (%s): planning around it (re-plan %d of %d)",
             blocked,

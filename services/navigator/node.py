@@ -4,7 +4,8 @@ Ticks the tree at ``navigator.rate_hz`` of fleet time (last lockstep stage), pub
 NavStatus on every change and at ``navigator.status_rate_hz``. While a route request is
 out, the lockstep answer is held back, so when the route arrives does not depend on
 machine load. The mission logic is :mod:`services.navigator.navigator`, the fleet's
-state :mod:`services.navigator.fleet_state`; this module only wires them to the bus.
+state :mod:`services.navigator.fleet_state`; this module only wires them to the bus, and
+keeps the mission where a restarted navigator takes it up (:mod:`resume`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from collections.abc import Callable
 
 from services.navigator.fleet_state import FleetState
 from services.navigator.navigator import NAME, Navigator
+from services.navigator.resume import MissionRecord, resume_goal
 from shared.config import FleetConfig
 from shared.lockstep import Participant
 from shared.messages import (
@@ -32,6 +34,7 @@ from shared.messages import (
     TreeSnapshot,
 )
 from shared.service import Service
+from shared.state_store import StateStore
 from shared.topics import Keys
 from shared.transport import Bus
 
@@ -119,15 +122,63 @@ class BusOutput:
         self.bus.publish(self.keys.planner_updates, update)
 
 
+class Saver:
+    """Keeps the navigator's mission in its state store as it changes (and once a second
+    of fleet time while it runs), and takes a saved one up once after a restart."""
+
+    def __init__(self, nav: Navigator, store: StateStore, within_s: float, log) -> None:
+        self.nav, self.store, self.within_s, self.log = nav, store, within_s, log
+        self._last: tuple | None = None
+        self._saved_at = -1e9
+        self._pending: MissionRecord | None = None
+        try:
+            raw = store.load()
+            self._pending = None if raw is None else MissionRecord.from_dict(raw)
+        except ValueError as exc:
+            store.problem = str(exc)
+        if store.problem:
+            log.warning("no mission to take up: %s", store.problem)
+
+    def take_up(self, now: float) -> None:
+        """At the first clock tick: plan the saved mission again if it is to be resumed."""
+        record, self._pending = self._pending, None
+        goal, why = resume_goal(record, now, self.within_s)
+        if goal is None:
+            if record is not None:
+                self.log.info("not taking up the saved mission: %s", why)
+            return
+        self.nav.on_goal(goal)
+        for checkpoint in record.avoided:
+            self.nav.avoid(checkpoint)
+        text = f"took up mission {goal.goal_id} ({record.phase or 'plan'}) from where it stands"
+        self.log.warning("%s", text)
+        self.nav.fleet.event("resumed", text)
+
+    def save(self, now: float) -> None:
+        record = self.nav.record()
+        if record is None:
+            return
+        key = (record.goal_id, record.state, record.phase, tuple(record.avoided))
+        if key != self._last or (record.state == "running" and now - self._saved_at >= 1.0):
+            self.store.save(record.to_dict())
+            self._last, self._saved_at = key, now
+
+
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         keys, bus = svc.keys, svc.bus
         fleet = ZenohFleet(bus, keys, svc.cfg)
         nav = Navigator.from_config(svc.cfg, fleet, BusOutput(bus, keys), svc.log)
+        saver = Saver(nav, StateStore.from_env(NAME), svc.cfg.navigator.resume_within_s, svc.log)
+        first = [True]
 
         def step(clock: Clock) -> None:
             fleet.on_clock(clock)
+            if first[0] and fleet.pose() is not None:  # a re-plan needs where the chair is
+                first[0] = False
+                saver.take_up(clock.stamp)
             nav.step(clock.stamp)
+            saver.save(clock.stamp)
             for req in fleet.doors_clear_to_close():
                 bus.publish(keys.key("door_request", door=req.door_name), req)
 

@@ -450,3 +450,50 @@ def test_a_killed_service_off_the_control_path_is_restarted_and_the_mission_succ
     assert done is not None, "the mission did not end:\n" + out.text()[-3000:]
     assert done.state == "succeeded", done.reason
     assert sup.restarts(service) == 1 and sup.pid(service) not in (None, old_pid)
+
+
+def test_a_navigator_killed_during_a_door_pass_takes_the_mission_up_again(fleet) -> None:
+    from shared.messages import Event, NavStatus
+
+    bus, _endpoint, sup, keys, scenario, out = fleet
+    lock = threading.Lock()
+    status: list[NavStatus] = []
+    events: list[Event] = []
+
+    def on_status(msg: NavStatus) -> None:
+        with lock:
+            status.append(msg)
+
+    def on_event(msg: Event) -> None:
+        with lock:
+            events.append(msg)
+
+    bus.subscribe(keys.nav_status, NavStatus, on_status)
+    bus.subscribe(keys.key("events", source="navigator"), Event, on_event)
+    bus.publish(keys.nav_goal, NavGoal(0.0, "nav-kill", None, scenario.place))
+    deadline = time.monotonic() + 90
+    while time.monotonic() < deadline:
+        with lock:
+            if status and status[-1].phase == "pass":
+                break
+        time.sleep(0.01)
+    else:
+        pytest.fail("no door pass:\n" + out.text()[-3000:])
+    old_pid = sup.pid("navigator")
+    os.kill(old_pid, signal.SIGKILL)
+    with lock:
+        killed_at = len(status)
+    deadline = time.monotonic() + 240
+    done = None
+    while time.monotonic() < deadline and done is None:
+        with lock:
+            done = next(
+                (s for s in status[killed_at:] if s.goal_id == "nav-kill" and s.state != "running"),
+                None,
+            )
+        time.sleep(0.05)
+    assert done is not None, "the mission did not end:\n" + out.text()[-3000:]
+    assert done.state == "succeeded", done.reason
+    assert sup.restarts("navigator") == 1
+    with lock:
+        assert any(e.kind == "resumed" and "nav-kill" in e.detail for e in events), events

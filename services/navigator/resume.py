@@ -1,0 +1,92 @@
+"""What a restarted navigator carries on with: the mission it was running.
+
+The navigator saves a :class:`MissionRecord` (goal, what it was doing, the doors and lifts
+it had given up on) as its status changes. Restarted by the launcher, it takes a record
+that was still running, is from this run (no older than the clock's start, and at most
+``within_s`` old) and plans the same goal again from where the chair stands, with the
+same checkpoints avoided: before a door that is Phase 0 again, past it the rest of the
+route. The controller has meanwhile finished the leg it was on and stopped at its end
+(never into a door or a car: those legs are sent one at a time). A mission interrupted
+inside a lift car (entering, riding, leaving) is not taken up: the chair stays where it
+is, the lift session expires with its lease, and the record says why. Pure: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from shared.messages import NavGoal, Phase, Pose2D
+
+IN_A_CAR = (Phase.ENTER, Phase.RIDE, Phase.EXIT)
+
+
+@dataclass(frozen=True)
+class MissionRecord:
+    """The running mission as saved: its goal, state and phase, the avoided checkpoints."""
+
+    stamp: float
+    goal_id: str
+    goal: tuple[float, float, float, str] | None
+    place: str
+    state: str
+    phase: str = ""
+    avoided: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "stamp": self.stamp,
+            "goal_id": self.goal_id,
+            "goal": None if self.goal is None else list(self.goal),
+            "place": self.place,
+            "state": self.state,
+            "phase": self.phase,
+            "avoided": list(self.avoided),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> MissionRecord:
+        """The record; ValueError naming what is wrong if ``d`` is not one."""
+        try:
+            goal = d["goal"]
+            if goal is not None:
+                x, y, theta = (float(v) for v in goal[:3])
+                goal = (x, y, theta, str(goal[3]))
+                if not all(math.isfinite(v) for v in goal[:3]):
+                    raise ValueError("goal is not finite")
+            record = cls(
+                float(d["stamp"]),
+                str(d["goal_id"]),
+                goal,
+                str(d["place"]),
+                str(d["state"]),
+                str(d.get("phase", "")),
+                [str(a) for a in d.get("avoided", [])],
+            )
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise ValueError(f"saved mission: missing or malformed field ({exc})") from None
+        if not math.isfinite(record.stamp):
+            raise ValueError("saved mission: stamp is not finite")
+        return record
+
+
+def resume_goal(
+    record: MissionRecord | None, now: float, within_s: float
+) -> tuple[NavGoal | None, str]:
+    """(the goal to plan again, "") or (None, why not) for a navigator restarted at ``now``."""
+    if record is None:
+        return None, "no saved mission"
+    if record.state != "running":
+        return None, f"the saved mission {record.goal_id} had ended ({record.state})"
+    if now < record.stamp:
+        return None, f"the saved mission {record.goal_id} is from an earlier run"
+    if now - record.stamp > within_s:
+        return None, (
+            f"the saved mission {record.goal_id} is {now - record.stamp:.1f} s old "
+            f"(navigator.resume_within_s {within_s:g})"
+        )
+    if record.phase in IN_A_CAR:
+        return None, f"the mission {record.goal_id} stopped in a lift car ({record.phase})"
+    goal = None if record.goal is None else Pose2D(*record.goal)
+    return NavGoal(now, record.goal_id, goal, record.place), ""
