@@ -311,10 +311,18 @@ def _door_steps(
 
 
 def _elevator_steps(
-    cp, route_id: str, p: EntryParams, clock, record, reach_m: float = 0.0
+    cp,
+    route_id: str,
+    p: EntryParams,
+    clock,
+    record,
+    reach_m: float = 0.0,
+    riding: bool = False,
 ) -> py_trees.behaviour.Behaviour:
     """Call the car, correct, verify its door open, drive in, ride, switch floor, back out
-    (LiDAR behind and lift state agreeing), release: the seed's phases on the lift protocol."""
+    (LiDAR behind and lift state agreeing), release: the seed's phases on the lift protocol.
+    ``riding``: the chair is in the car already (a restarted navigator): from sending the
+    car to the floor on."""
     nav = p.nav
     heading = np.array([np.cos(cp.approach.theta), np.sin(cp.approach.theta)])
     start = np.array([cp.approach.x, cp.approach.y])
@@ -379,6 +387,8 @@ def _elevator_steps(
         Timeout(f"Exit {cp.id}", back_out, timeout, clock, record),
         ReleaseLift(cp.id),
     ]
+    if riding:
+        steps = steps[4:]
     return py_trees.composites.Sequence(f"Elevator {cp.id}", memory=True, children=steps)
 
 
@@ -434,7 +444,10 @@ def _docked_instead(leg: Path, after_door: bool, nav) -> float:
 
 
 def create_route_tree(
-    route: RouteReply, clock: Callable[[], float], params: EntryParams
+    route: RouteReply,
+    clock: Callable[[], float],
+    params: EntryParams,
+    riding_at: int = -1,
 ) -> py_trees.behaviour.Behaviour:
     """The second tree of a mission: drive the route's legs and pass its checkpoints in order.
 
@@ -442,6 +455,8 @@ def create_route_tree(
     to that checkpoint's position correction (the seed's Phase 0 tests start 0.5 m from
     the approach pose, sometimes past it: the chair backs up rather than turning round),
     and so is the room between two doors in series (:func:`_docked_instead`).
+    ``riding_at``: the index of a lift step (as :func:`route_steps` counts) the chair is
+    in the car of already; the tree starts there, from sending the car to the floor.
     """
     record = _timeouts()
     nav = params.nav
@@ -459,7 +474,12 @@ def create_route_tree(
         if cp.kind == "door":
             steps.append(_door_steps(cp, route_id, params, clock, record, docked))
         else:
-            steps.append(_elevator_steps(cp, route_id, params, clock, record, docked))
+            riding = len(steps) == riding_at
+            steps.append(_elevator_steps(cp, route_id, params, clock, record, docked, riding))
+    if riding_at >= 0:
+        if riding_at >= len(steps) or not steps[riding_at].name.startswith("Elevator "):
+            raise ValueError(f"route step {riding_at} is not a lift")
+        steps = steps[riding_at:]
     drive = py_trees.composites.Sequence(DRIVE, memory=True, children=steps)
     safety = SafetyGate(
         "Safety",

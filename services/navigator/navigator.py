@@ -15,6 +15,7 @@ over the bus, the tests with fakes.
 
 from __future__ import annotations
 
+import base64
 import logging
 import math
 from typing import Protocol
@@ -30,6 +31,7 @@ from behaviours.recovery import create_recovery_tree
 from behaviours.snapshot import signature, snapshot
 from services.navigator.leases import Leases
 from services.navigator.resume import MissionRecord
+from shared.codec import encode
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
     TERMINAL_STATES,
@@ -108,6 +110,7 @@ class Navigator:
         self.around_marks = False  # the plan tree runs a re-plan around marked points
         self.fallbacks: list[str] = []
         self.avoided: list[str] = []  # checkpoints given up on in this mission
+        self._route_saved = ""  # the route being driven, as a restarted navigator reads it
         self._steps_of: list[py_trees.behaviour.Behaviour] = []
         self._last_sent: tuple | None = None
         self._last_sent_at = -1e9
@@ -141,6 +144,7 @@ class Navigator:
             return None
         g = self.bb.goal
         goal = None if g is None else (g.x, g.y, g.theta, g.floor)
+        step = self._running_step()[0] if self.driving else -1
         return MissionRecord(
             self.fleet.now(),
             s.goal_id,
@@ -149,7 +153,16 @@ class Navigator:
             s.state,
             str(s.phase),
             list(self.avoided),
+            self._route_saved if self.driving else "",
+            step,
         )
+
+    def ride_on(self, msg: NavGoal, route: RouteReply, step: int) -> None:
+        """Take up a mission whose chair is in the car of the lift at route step ``step``
+        (a restarted navigator): send the car to the floor again, wait for it, go on."""
+        self.on_goal(msg)
+        self.bb.route = route
+        self._drive(route, riding_at=step)
 
     @property
     def running(self) -> bool:
@@ -224,12 +237,13 @@ class Navigator:
         self.driving = False
         self._grow(create_plan_tree(self.fleet.now, self.cfg.plan_timeout_s))
 
-    def _drive(self, route: RouteReply) -> None:
+    def _drive(self, route: RouteReply, riding_at: int = -1) -> None:
         """The plan tree got ``route``: drive it, starting its first step now (its phase is
-        the status's)."""
+        the status's); ``riding_at``: from that lift step, the chair in its car."""
         self.driving, self.around_marks = True, False
+        self._route_saved = base64.b64encode(encode(route)).decode("ascii")
         self.out.publish_route(route)
-        self._grow(create_route_tree(route, self.fleet.now, self.entry))
+        self._grow(create_route_tree(route, self.fleet.now, self.entry, riding_at))
         self.tree.tick()
         self._set("running", phase=self.bb.phase, action=self._action())
 

@@ -10,11 +10,13 @@ keeps the mission where a restarted navigator takes it up (:mod:`resume`).
 
 from __future__ import annotations
 
+import base64
 from collections.abc import Callable
 
 from services.navigator.fleet_state import FleetState
 from services.navigator.navigator import NAME, Navigator
-from services.navigator.resume import MissionRecord, resume_goal
+from services.navigator.resume import MissionRecord, in_car, resume_goal
+from shared.codec import DecodeError, decode
 from shared.config import FleetConfig
 from shared.lockstep import Participant
 from shared.messages import (
@@ -139,18 +141,34 @@ class Saver:
         if store.problem:
             log.warning("no mission to take up: %s", store.problem)
 
+    @property
+    def pending(self) -> bool:
+        return self._pending is not None
+
     def take_up(self, now: float) -> None:
-        """At the first clock tick: plan the saved mission again if it is to be resumed."""
+        """Once the controller has ended the leg it had: take the saved mission up (ride on
+        in a car, else plan again) if it is to be resumed."""
         record, self._pending = self._pending, None
         goal, why = resume_goal(record, now, self.within_s)
         if goal is None:
             if record is not None:
                 self.log.info("not taking up the saved mission: %s", why)
             return
-        self.nav.on_goal(goal)
+        how = "planning again from where it stands"
+        route = None
+        if in_car(record):
+            try:
+                route = decode(base64.b64decode(record.route), RouteReply)
+            except (ValueError, DecodeError) as exc:
+                self.log.warning("saved route unreadable (%s): planning again", exc)
+        if route is not None:
+            self.nav.ride_on(goal, route, record.step)
+            how = "riding on in the lift car"
+        else:
+            self.nav.on_goal(goal)
         for checkpoint in record.avoided:
             self.nav.avoid(checkpoint)
-        text = f"took up mission {goal.goal_id} ({record.phase or 'plan'}) from where it stands"
+        text = f"took up mission {goal.goal_id} (it was in {record.phase or 'plan'}): {how}"
         self.log.warning("%s", text)
         self.nav.fleet.event("resumed", text)
 
@@ -170,12 +188,14 @@ def main(argv: list[str] | None = None) -> None:
         fleet = ZenohFleet(bus, keys, svc.cfg)
         nav = Navigator.from_config(svc.cfg, fleet, BusOutput(bus, keys), svc.log)
         saver = Saver(nav, StateStore.from_env(NAME), svc.cfg.navigator.resume_within_s, svc.log)
-        first = [True]
 
         def step(clock: Clock) -> None:
             fleet.on_clock(clock)
-            if first[0] and fleet.pose() is not None:  # a re-plan needs where the chair is
-                first[0] = False
+            follow = fleet.follow_status()
+            # a saved mission waits for the pose and for the controller to end the leg it
+            # had (a pass through a door, a drive out of a car)
+            leg_done = follow is None or follow.state != "following"
+            if saver.pending and fleet.pose() is not None and leg_done:
                 saver.take_up(clock.stamp)
             nav.step(clock.stamp)
             saver.save(clock.stamp)

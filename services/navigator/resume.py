@@ -5,10 +5,11 @@ it had given up on) as its status changes. Restarted by the launcher, it takes a
 that was still running, is from this run (no older than the clock's start, and at most
 ``within_s`` old) and plans the same goal again from where the chair stands, with the
 same checkpoints avoided: before a door that is Phase 0 again, past it the rest of the
-route. The controller has meanwhile finished the leg it was on and stopped at its end
-(never into a door or a car: those legs are sent one at a time). A mission interrupted
-inside a lift car (entering, riding, leaving) is not taken up: the chair stays where it
-is, the lift session expires with its lease, and the record says why. Pure: no I/O.
+route. It waits until the controller has finished the leg it was on and stopped at its end
+(never into a door or a car: those legs are sent one at a time). Entering a car or riding
+in it, it takes up the saved route at that lift step from "send the car to the floor"
+(which renews the lift session) and waits for the lift's state again; leaving a car, the
+back-out leg ends outside on the new floor and the goal is planned again. Pure: no I/O.
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ class MissionRecord:
     state: str
     phase: str = ""
     avoided: list[str] = field(default_factory=list)
+    route: str = ""  # the route being driven, encoded (base64 of the codec's bytes)
+    step: int = -1  # the index of its running step (a leg, a door, a lift)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -43,6 +46,8 @@ class MissionRecord:
             "state": self.state,
             "phase": self.phase,
             "avoided": list(self.avoided),
+            "route": self.route,
+            "step": self.step,
         }
 
     @classmethod
@@ -63,6 +68,8 @@ class MissionRecord:
                 str(d["state"]),
                 str(d.get("phase", "")),
                 [str(a) for a in d.get("avoided", [])],
+                str(d.get("route", "")),
+                int(d.get("step", -1)),
             )
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise ValueError(f"saved mission: missing or malformed field ({exc})") from None
@@ -74,7 +81,8 @@ class MissionRecord:
 def resume_goal(
     record: MissionRecord | None, now: float, within_s: float
 ) -> tuple[NavGoal | None, str]:
-    """(the goal to plan again, "") or (None, why not) for a navigator restarted at ``now``."""
+    """(the goal to take up, "") or (None, why not) for a navigator restarted at ``now``.
+    In a car (:func:`in_car`) the goal is taken up by riding on, else by planning again."""
     if record is None:
         return None, "no saved mission"
     if record.state != "running":
@@ -86,7 +94,13 @@ def resume_goal(
             f"the saved mission {record.goal_id} is {now - record.stamp:.1f} s old "
             f"(navigator.resume_within_s {within_s:g})"
         )
-    if record.phase in IN_A_CAR:
-        return None, f"the mission {record.goal_id} stopped in a lift car ({record.phase})"
+    if record.phase in IN_A_CAR and record.phase != Phase.EXIT and not in_car(record):
+        return None, f"the mission {record.goal_id} stopped in a lift car with no route saved"
     goal = None if record.goal is None else Pose2D(*record.goal)
     return NavGoal(now, record.goal_id, goal, record.place), ""
+
+
+def in_car(record: MissionRecord) -> bool:
+    """True if the mission stopped with the chair in a lift car (entering or riding) and
+    its route is saved: it rides on from "send the car to the floor" of that lift step."""
+    return record.phase in (Phase.ENTER, Phase.RIDE) and bool(record.route) and record.step >= 0

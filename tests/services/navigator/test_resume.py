@@ -42,3 +42,12 @@ def test_a_running_mission_of_this_run_is_planned_again_with_its_goal() -> None:
 def test_what_is_not_taken_up_says_why(record, now, why) -> None:
     goal, text = resume_goal(record, now, 30.0)
     assert goal is None and why in text
+
+
+def test_in_a_car_with_its_route_saved_it_rides_on() -> None:
+    from services.navigator.resume import in_car
+
+    riding = MissionRecord(40.0, "g7", None, "b", "running", "ride", [], "cm91dGU=", 3)
+    assert in_car(riding) and resume_goal(riding, 41.0, 30.0)[0] is not None
+    leaving = MissionRecord(40.0, "g7", None, "b", "running", "exit", [], "cm91dGU=", 3)
+    assert not in_car(leaving) and resume_goal(leaving, 41.0, 30.0)[0] is not None  # re-plan
