@@ -342,77 +342,100 @@ def test_lockstep_slips_are_reported(tmp_path) -> None:
     assert "no answer from" in slips[0]["detail"]
 
 
-def test_killed_localisation_stops_the_chair_resumes_its_pose_and_the_mission_goes_on(
-    fleet,
-) -> None:
-    from shared.messages import Event, NavStatus, PoseEstimate
+class Heard:
+    """Messages heard on the bus by name, in order, and bounded waits on them."""
 
-    bus, _endpoint, sup, keys, scenario, out = fleet
-    lock = threading.Lock()
-    seen: dict[str, list] = {"pose": [], "truth": [], "cmd": [], "status": [], "events": []}
+    def __init__(self, bus, out: Capture) -> None:
+        self.bus, self.out = bus, out
+        self.lock = threading.Lock()
+        self.seen: dict[str, list] = {}
 
-    def keep(name: str):
+    def keep(self, name: str, key: str, msg_type: type) -> None:
+        self.seen[name] = []
+
         def on(msg) -> None:
-            with lock:
-                seen[name].append(msg)
+            with self.lock:
+                self.seen[name].append(msg)
 
-        return on
+        self.bus.subscribe(key, msg_type, on)
 
-    bus.subscribe(keys.pose, PoseEstimate, keep("pose"))
-    bus.subscribe(keys.ground_truth, Odometry, keep("truth"))
-    bus.subscribe(keys.cmd_vel, Twist, keep("cmd"))
-    bus.subscribe(keys.nav_status, NavStatus, keep("status"))
-    bus.subscribe(keys.key("events", source="localisation"), Event, keep("events"))
-    bus.publish(keys.nav_goal, NavGoal(0.0, "loc-kill", None, scenario.place))
-
-    def wait_for(what, timeout: float, why: str):
+    def wait_for(self, what, timeout: float, why: str):
+        """The first truthy ``what(seen)`` within ``timeout`` s of wall time, else fail."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            with lock:
-                got = what()
+            with self.lock:
+                got = what(self.seen)
             if got:
                 return got
             time.sleep(0.02)
-        pytest.fail(why + ":\n" + out.text()[-3000:])
+        pytest.fail(why + ":\n" + self.out.text()[-3000:])
 
-    wait_for(lambda: seen["truth"] and seen["truth"][-1].v > 0.3, 60, "the chair never moved")
+    def moving(self) -> None:
+        self.wait_for(lambda s: s["truth"] and s["truth"][-1].v > 0.3, 60, "the chair never moved")
+
+    def mission_end(self, goal_id: str, after: int = 0):
+        return self.wait_for(
+            lambda s: next(
+                (m for m in s["status"][after:] if m.goal_id == goal_id and m.state != "running"),
+                None,
+            ),
+            240,
+            "the mission did not end",
+        )
+
+
+def _heard(fleet) -> Heard:
+    from shared.messages import NavStatus
+
+    bus, _endpoint, _sup, keys, _scenario, out = fleet
+    heard = Heard(bus, out)
+    heard.keep("truth", keys.ground_truth, Odometry)
+    heard.keep("status", keys.nav_status, NavStatus)
+    return heard
+
+
+def test_killed_localisation_stops_the_chair_resumes_its_pose_and_the_mission_goes_on(
+    fleet,
+) -> None:
+    from shared.messages import Event, PoseEstimate
+
+    bus, _endpoint, sup, keys, scenario, out = fleet
+    heard = _heard(fleet)
+    heard.keep("pose", keys.pose, PoseEstimate)
+    heard.keep("cmd", keys.cmd_vel, Twist)
+    heard.keep("events", keys.key("events", source="localisation"), Event)
+    bus.publish(keys.nav_goal, NavGoal(0.0, "loc-kill", None, scenario.place))
+    heard.moving()
     old_pid = sup.pid("localisation")
     os.kill(old_pid, signal.SIGKILL)
     time.sleep(0.3)
-    with lock:
-        last_pose = seen["pose"][-1].stamp
+    with heard.lock:
+        last_pose = heard.seen["pose"][-1].stamp
     # the controller hears no pose: it commands a stop within its pose timeout (0.5 s)
-    stop = wait_for(
-        lambda: next((c for c in seen["cmd"] if c.stamp > last_pose and c.v == 0.0), None),
+    stop = heard.wait_for(
+        lambda s: next((c for c in s["cmd"] if c.stamp > last_pose and c.v == 0.0), None),
         30,
         "no stop command after localisation died",
     )
     assert stop.stamp - last_pose <= 0.5 + 1.5 / scenario.config.controller.rate_hz
-    resumed = wait_for(
-        lambda: next((e for e in seen["events"] if e.kind == "resumed"), None),
+    resumed = heard.wait_for(
+        lambda s: next((e for e in s["events"] if e.kind == "resumed"), None),
         60,
         "the restarted localisation did not resume its pose",
     )
     assert sup.restarts("localisation") == 1 and sup.pid("localisation") != old_pid
 
-    def pose_error() -> list[float] | None:  # the first pose after the restart, vs truth
-        after = next((p for p in seen["pose"] if p.stamp > resumed.stamp), None)
-        truth = next((t for t in seen["truth"] if after and t.stamp >= after.stamp), None)
+    def pose_error(s) -> list[float] | None:  # the first pose after the restart, vs truth
+        after = next((p for p in s["pose"] if p.stamp > resumed.stamp), None)
+        truth = next((t for t in s["truth"] if after and t.stamp >= after.stamp), None)
         if after is None or truth is None:
             return None
         return [float(np.hypot(after.pose.x - truth.pose.x, after.pose.y - truth.pose.y))]
 
-    (error,) = wait_for(pose_error, 30, "no pose after the restart")
+    (error,) = heard.wait_for(pose_error, 30, "no pose after the restart")
     print(f"pose after the restart {error:.3f} m from the truth")
     assert error < 0.05
-    done = wait_for(
-        lambda: next(
-            (s for s in seen["status"] if s.goal_id == "loc-kill" and s.state != "running"),
-            None,
-        ),
-        240,
-        "the mission did not end",
-    )
+    done = heard.mission_end("loc-kill")
     assert done.state == "succeeded", done.reason
 
 
@@ -420,44 +443,13 @@ def test_killed_localisation_stops_the_chair_resumes_its_pose_and_the_mission_go
 def test_a_killed_service_off_the_control_path_is_restarted_and_the_mission_succeeds(
     fleet, service
 ) -> None:
-    from shared.messages import NavStatus
-
-    bus, _endpoint, sup, keys, scenario, out = fleet
-    lock = threading.Lock()
-    truth: list[Odometry] = []
-    status: list[NavStatus] = []
-
-    def on_truth(msg: Odometry) -> None:
-        with lock:
-            truth.append(msg)
-
-    def on_status(msg: NavStatus) -> None:
-        with lock:
-            status.append(msg)
-
-    bus.subscribe(keys.ground_truth, Odometry, on_truth)
-    bus.subscribe(keys.nav_status, NavStatus, on_status)
+    bus, _endpoint, sup, keys, scenario, _out = fleet
+    heard = _heard(fleet)
     bus.publish(keys.nav_goal, NavGoal(0.0, f"kill-{service}", None, scenario.place))
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        with lock:
-            if truth and truth[-1].v > 0.3:
-                break
-        time.sleep(0.02)
-    else:
-        pytest.fail("the chair never moved:\n" + out.text()[-3000:])
+    heard.moving()
     old_pid = sup.pid(service)
     os.kill(old_pid, signal.SIGKILL)
-    deadline = time.monotonic() + 240
-    done = None
-    while time.monotonic() < deadline and done is None:
-        with lock:
-            done = next(
-                (s for s in status if s.goal_id == f"kill-{service}" and s.state != "running"),
-                None,
-            )
-        time.sleep(0.05)
-    assert done is not None, "the mission did not end:\n" + out.text()[-3000:]
+    done = heard.mission_end(f"kill-{service}")
     assert done.state == "succeeded", done.reason
     assert sup.restarts(service) == 1 and sup.pid(service) not in (None, old_pid)
 
@@ -469,48 +461,22 @@ def test_a_killed_service_off_the_control_path_is_restarted_and_the_mission_succ
 def test_a_killed_navigator_takes_the_mission_up_again(request, where, phase, how) -> None:
     # killed during a door pass: planned again from where the chair stopped; killed in a
     # lift car during the ride: the car is sent to the floor again and the mission rides on
-    from shared.messages import Event, NavStatus
+    from shared.messages import Event
 
-    fixture = "fleet" if where == "demo" else "fleet_two_floors"
-    bus, _endpoint, sup, keys, scenario, out = request.getfixturevalue(fixture)
-    lock = threading.Lock()
-    status: list[NavStatus] = []
-    events: list[Event] = []
-
-    def on_status(msg: NavStatus) -> None:
-        with lock:
-            status.append(msg)
-
-    def on_event(msg: Event) -> None:
-        with lock:
-            events.append(msg)
-
-    bus.subscribe(keys.nav_status, NavStatus, on_status)
-    bus.subscribe(keys.key("events", source="navigator"), Event, on_event)
+    fleet = request.getfixturevalue("fleet" if where == "demo" else "fleet_two_floors")
+    bus, _endpoint, sup, keys, scenario, _out = fleet
+    heard = _heard(fleet)
+    heard.keep("events", keys.key("events", source="navigator"), Event)
     bus.publish(keys.nav_goal, NavGoal(0.0, "nav-kill", None, scenario.place))
-    deadline = time.monotonic() + 180
-    while time.monotonic() < deadline:
-        with lock:
-            if status and status[-1].phase == phase:
-                break
-        time.sleep(0.01)
-    else:
-        pytest.fail(f"no {phase} phase:\n" + out.text()[-3000:])
-    old_pid = sup.pid("navigator")
-    os.kill(old_pid, signal.SIGKILL)
-    with lock:
-        killed_at = len(status)
-    deadline = time.monotonic() + 240
-    done = None
-    while time.monotonic() < deadline and done is None:
-        with lock:
-            done = next(
-                (s for s in status[killed_at:] if s.goal_id == "nav-kill" and s.state != "running"),
-                None,
-            )
-        time.sleep(0.05)
-    assert done is not None, "the mission did not end:\n" + out.text()[-3000:]
+    heard.wait_for(
+        lambda s: s["status"] and s["status"][-1].phase == phase, 180, f"no {phase} phase"
+    )
+    os.kill(sup.pid("navigator"), signal.SIGKILL)
+    with heard.lock:
+        killed_at = len(heard.seen["status"])
+    done = heard.mission_end("nav-kill", after=killed_at)
     assert done.state == "succeeded", done.reason
     assert sup.restarts("navigator") == 1
-    with lock:
-        assert any(e.kind == "resumed" and how in e.detail for e in events), events
+    with heard.lock:
+        events = list(heard.seen["events"])
+    assert any(e.kind == "resumed" and how in e.detail for e in events), events
