@@ -149,6 +149,9 @@ class Saver:
         """Once the controller has ended the leg it had: take the saved mission up (ride on
         in a car, else plan again) if it is to be resumed."""
         record, self._pending = self._pending, None
+        if self.nav.status.goal_id:  # a goal came in meanwhile: it wins over the saved one
+            self.log.info("not taking up the saved mission: a new goal came first")
+            return
         goal, why = resume_goal(record, now, self.within_s)
         if goal is None:
             if record is not None:
