@@ -569,7 +569,9 @@ class DoorClearance(Msg):
     pose [x, y, theta]), the opening's clear width (``free_width_m``: less half a hinged
     leaf's thickness, which stands in it open; 0: as ``width_m``) and whether the chair's
     centre stood in the doorway (``entered``; False: only its outline came near, as
-    turning beside a door it does not pass)."""
+    turning beside a door it does not pass). Once entered, ``min_clearance_m`` covers the
+    time the centre stood in the doorway, and ``outline_clearance_m`` the time only the
+    outline was in its zone (approaching, turning beside it; 1e6: never)."""
 
     door_id: str
     width_m: float = num(*LENGTH)
@@ -578,6 +580,7 @@ class DoorClearance(Msg):
     at: list[float] = field(default_factory=list)
     free_width_m: float = num(*LENGTH, default=0.0)
     entered: bool = True
+    outline_clearance_m: float = 1e6
 
     def validate(self) -> None:
         if len(self.at) not in (0, 3):

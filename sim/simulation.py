@@ -53,10 +53,26 @@ class ClearanceSeen:
     at: tuple[float, float, float] = (0.0, 0.0, 0.0)
     free: float = 0.0
     entered: bool = False  # the chair's centre stood in the doorway (it passed, or began to)
+    outline: float = math.inf  # least clearance while only the outline was in the doorway
 
     def see(self, clearance: float, nearest: str, at: tuple[float, float, float]) -> None:
         if clearance < self.clearance:
             self.clearance, self.nearest, self.at = clearance, nearest, at
+
+    def see_in_opening(
+        self, clearance: float, nearest: str, at: tuple[float, float, float], centre_in: bool
+    ) -> None:
+        """One measurement in this opening's zone. While the chair's centre stands in the
+        doorway it is passing and its centring counts (``clearance``); before that, and
+        turning beside it, only its outline is in (``outline``). Until the centre first
+        stands in, ``clearance`` reports the outline's least, as a door never passed."""
+        if not centre_in:
+            self.outline = min(self.outline, clearance)
+            if self.entered:
+                return
+        elif not self.entered:
+            self.entered, self.clearance = True, math.inf
+        self.see(clearance, nearest, at)
 
 
 # the doorway: this far either side of the door plane (half a 0.2 m wall and a frame) and
@@ -325,15 +341,16 @@ class Simulation:
         self.min_clearance = min(self.min_clearance, best)
         self.in_collision = best <= 0.0
         s = self.state
+        at = (s.x, s.y, s.theta)
         opening = self._opening_at(s.x, s.y, s.theta)
         if opening is None:
-            seen = self.away
-        else:
-            seen = self.door_clearance.setdefault(
-                opening.id, ClearanceSeen(opening.width, free=opening.free)
-            )
-            seen.entered = seen.entered or _centre_in(opening, *self._footprint_centre(s))
-        seen.see(best, self.nearest, (s.x, s.y, s.theta))
+            self.away.see(best, self.nearest, at)
+            return
+        seen = self.door_clearance.setdefault(
+            opening.id, ClearanceSeen(opening.width, free=opening.free)
+        )
+        centre_in = _centre_in(opening, *self._footprint_centre(s))
+        seen.see_in_opening(best, self.nearest, at, centre_in)
 
     @property
     def min_clearance_away(self) -> float:

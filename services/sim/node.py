@@ -50,6 +50,7 @@ def status_message(sim: Simulation, stamp: float) -> SimStatus:
                 [round(v, 3) for v in seen.at],
                 seen.free,
                 seen.entered,
+                _finite(seen.outline),
             )
             for door_id, seen in sim.door_clearance.items()
         ],

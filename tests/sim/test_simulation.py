@@ -9,7 +9,7 @@ import pytest
 
 from shared.config import load
 from shared.site import load_site
-from sim.simulation import Simulation
+from sim.simulation import ClearanceSeen, Simulation
 from sim.world import merge_boxes
 from tests.conftest import ROOT
 
@@ -122,4 +122,18 @@ def test_clearance_in_an_opening_and_away_says_to_what_and_where() -> None:
     assert seen.entered is True  # its centre in the doorway: judged as passing it
     nose = make(x=6.2 - 0.76 + 0.1, y=2.7)  # only its front 0.1 m into the doorway
     assert not nose.door_clearance["door_ab"].entered
+    assert nose.door_clearance["door_ab"].outline == nose.door_clearance["door_ab"].clearance
     assert away.min_clearance_away == away.away.clearance < 2.0
+
+
+def test_a_doorway_once_entered_counts_only_the_time_its_centre_stood_in_it() -> None:
+    # camp23 b2.m08: turning 0.6 m before a 1.2 m door (only its outline in the doorway's
+    # zone) the chair came 0.118 m from a jamb; that was judged as its centring in the door
+    seen = ClearanceSeen(1.2)
+    seen.see_in_opening(0.118, "wall", (9.8, 11.1, 2.5), centre_in=False)
+    assert (seen.clearance, seen.outline, seen.entered) == (0.118, 0.118, False)
+    seen.see_in_opening(0.26, "wall", (9.2, 11.3, 3.1), centre_in=True)
+    assert (seen.clearance, seen.at, seen.entered) == (0.26, (9.2, 11.3, 3.1), True)
+    seen.see_in_opening(0.09, "wall", (8.6, 11.3, 3.1), centre_in=False)  # leaving it
+    seen.see_in_opening(0.24, "wall", (9.1, 11.3, 3.1), centre_in=True)
+    assert (seen.clearance, seen.outline) == (0.24, 0.09)

@@ -125,3 +125,18 @@ def test_a_doorway_only_the_outline_came_near_is_judged_as_away_from_doors() -> 
     assert row["tight_doors"] == ["d9"] and not row["clearance_ok"]
     passed = judge(scenario(), report(True, door_clearance=[{**near, "entered": True}]))
     assert passed["tight_doors"] == ["d9"]  # passing it, its centring counts
+
+
+def test_a_doorway_passed_is_judged_on_its_centring_and_on_its_outline_time() -> None:
+    # camp23 b2.m08: 0.118 m to a jamb of a 1.2 m door while turning before it (outline
+    # only); passing it later, 0.26 m: within both limits
+    door = {"door": "d3", "width_m": 1.2, "min_clearance_m": 0.26, "entered": True}
+    row = judge(scenario(), report(True, door_clearance=[{**door, "outline_clearance_m": 0.118}]))
+    assert row["door_clearance"][0]["outline_required_m"] == 0.05 and row["clearance_ok"]
+    row = judge(scenario(), report(True, door_clearance=[{**door, "outline_clearance_m": 0.03}]))
+    assert row["tight_doors"] == ["d3"] and not row["clearance_ok"]
+    assert "0.030 m with only the outline in d3 (needs 0.050)" in format_tight([row])
+    # a 0.80 m door: a front already in it is held to the door's own 0.045 m, not 0.05
+    narrow = {**door, "width_m": 0.8, "min_clearance_m": 0.06, "outline_clearance_m": 0.047}
+    row = judge(scenario(), report(True, door_clearance=[narrow]))
+    assert row["door_clearance"][0]["outline_required_m"] == 0.045 and row["clearance_ok"]

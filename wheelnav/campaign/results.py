@@ -21,12 +21,28 @@ DOOR_SLACK_M = 0.03  # inside an opening: (free width - chair width) / 2 less th
 
 def door_requirement_m(width_m: float, chair_width_m: float, entered: bool = True) -> float:
     """The least clearance accepted inside an opening ``width_m`` wide (its clear width:
-    a hinged leaf standing open takes half its thickness from it); near a doorway the
-    chair's centre never stood in (``entered`` False: its outline turned beside a door it
-    did not pass), the limit away from doors."""
-    if not entered:
-        return AWAY_CLEARANCE_M
-    return (width_m - chair_width_m) / 2 - DOOR_SLACK_M
+    a hinged leaf standing open takes half its thickness from it) while the chair's centre
+    stands in its doorway. While only the chair's outline is in it (``entered`` False:
+    approaching it, or turning beside a door it does not pass) the chair is away from
+    openings, and the limit away from doors holds, or the opening's own where that is
+    less (a front already in a narrow door is centred in it, not 5 cm from its jambs)."""
+    inside = (width_m - chair_width_m) / 2 - DOOR_SLACK_M
+    return inside if entered else min(AWAY_CLEARANCE_M, inside)
+
+
+def _judge_door(d: dict[str, Any], chair_w: float) -> dict[str, Any]:
+    """A report's door entry with its limits: while passing it (``required_m``) and while
+    only the outline was in it (``outline_required_m``)."""
+    free = d.get("free_width_m") or d["width_m"]
+    return {
+        **d,
+        "required_m": round(door_requirement_m(free, chair_w, d.get("entered", True)), 4),
+        "outline_required_m": round(door_requirement_m(free, chair_w, False), 4),
+    }
+
+
+def _below(d: dict[str, Any], value: str, limit: str) -> bool:
+    return d.get(value) is not None and d[value] < d[limit]
 
 
 def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
@@ -43,22 +59,12 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
         )
         as_expected = not report["success"] and report.get("state") == "failed" and matches
     as_expected = as_expected and report.get("collisions", 0) == 0
-    doors = [
-        {
-            **d,
-            "required_m": round(
-                door_requirement_m(
-                    d.get("free_width_m") or d["width_m"], chair_w, d.get("entered", True)
-                ),
-                4,
-            ),
-        }
-        for d in report.get("door_clearance", [])
-    ]
-    tight_doors = [
+    doors = [_judge_door(d, chair_w) for d in report.get("door_clearance", [])]
+    tight_doors = [d["door"] for d in doors if _below(d, "min_clearance_m", "required_m")]
+    tight_doors += [
         d["door"]
         for d in doors
-        if d["min_clearance_m"] is not None and d["min_clearance_m"] < d["required_m"]
+        if d["door"] not in tight_doors and _below(d, "outline_clearance_m", "outline_required_m")
     ]
     away = report.get("min_clearance_away_m")
     planned = report.get("planned_length_m")

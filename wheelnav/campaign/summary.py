@@ -100,11 +100,18 @@ def format_tight(rows: list[dict[str, Any]]) -> str:
             )
             lines.append(f"  {r['mission']}: {away:.3f} m away from doors, {where}")
         for d in r.get("door_clearance", []):
-            if d["door"] in r.get("tight_doors", []):
+            if d["door"] not in r.get("tight_doors", []):
+                continue
+            if d["min_clearance_m"] is not None and d["min_clearance_m"] < d["required_m"]:
                 where = _where(d.get("nearest", ""), d.get("at", []))
                 lines.append(
                     f"  {r['mission']}: {d['min_clearance_m']:.3f} m in {d['door']} "
                     f"(needs {d['required_m']:.3f}), {where}"
+                )
+            else:
+                lines.append(
+                    f"  {r['mission']}: {d['outline_clearance_m']:.3f} m with only the "
+                    f"outline in {d['door']} (needs {d['outline_required_m']:.3f})"
                 )
     if not lines:
         return "every clearance within its limit"

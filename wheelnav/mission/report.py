@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -145,11 +145,23 @@ class Recorder:
             self.min_clearance_away_m = msg.min_clearance_away_m
             self.away_nearest, self.away_at = msg.away_nearest, list(msg.away_at)
         for d in msg.doors:
-            seen = self.door_clearance.get(d.door_id)
-            entered = d.entered or (seen is not None and seen.entered)  # once in, always so
-            if seen is None or d.min_clearance_m < seen.min_clearance_m:
-                self.door_clearance[d.door_id] = d
-            self.door_clearance[d.door_id].entered = entered
+            self._see_door(d)
+
+    def _see_door(self, d: DoorClearance) -> None:
+        """Keep, per door, the least clearance while passing it (once its doorway was
+        entered, only that counts: the first entry replaces an outline-only least) and
+        the least while only the outline was in its zone."""
+        seen = self.door_clearance.get(d.door_id)
+        outline = min(d.outline_clearance_m, d.min_clearance_m if not d.entered else _FAR_M)
+        if seen is not None:
+            outline = min(outline, seen.outline_clearance_m)
+        if (
+            seen is None
+            or (d.entered and not seen.entered)
+            or (d.entered == seen.entered and d.min_clearance_m < seen.min_clearance_m)
+        ):
+            seen = self.door_clearance[d.door_id] = replace(d)
+        seen.outline_clearance_m = outline
 
     def on_diagnostics(self, msg: Diagnostics) -> None:
         """A service's counters: the latest of each service before the mission ended."""
@@ -274,6 +286,9 @@ class Recorder:
                     "nearest": d.nearest,
                     "at": list(d.at),
                     "entered": d.entered,
+                    "outline_clearance_m": _rounded(d.outline_clearance_m)
+                    if d.outline_clearance_m < _FAR_M
+                    else None,
                 }
                 for door, d in self.door_clearance.items()
             ],

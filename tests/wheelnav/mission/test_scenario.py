@@ -113,12 +113,17 @@ def test_recorder_keeps_that_a_doorway_was_entered_once_it_was() -> None:
     later = DoorClearance("d1", 0.9, 0.08, entered=False)  # lower, from a stale flag
     r.on_sim_status(SimStatus(2.0, 0, False, 0.3, 0.08, doors=[later]))
     (door,) = r.report("x", 1.0)["door_clearance"]
-    assert door["min_clearance_m"] == 0.08 and door["entered"] is True
+    assert door["min_clearance_m"] == 0.12 and door["entered"] is True
+    assert door["outline_clearance_m"] == 0.08
     r = Recorder("g1")  # the least clearance before the chair entered, then it passed
     r.on_status(NavStatus(0.2, "g1", "running", phase="follow"))
-    before = DoorClearance("d1", 0.9, 0.08, entered=False)
+    before = DoorClearance("d1", 0.9, 0.08, entered=False, outline_clearance_m=0.08)
     r.on_sim_status(SimStatus(1.0, 0, False, 0.3, 0.08, doors=[before]))
-    passing = DoorClearance("d1", 0.9, 0.12, entered=True)
+    passing = DoorClearance("d1", 0.9, 0.12, entered=True, outline_clearance_m=0.08)
     r.on_sim_status(SimStatus(2.0, 0, False, 0.3, 0.08, doors=[passing]))
     (door,) = r.report("x", 1.0)["door_clearance"]
-    assert door["min_clearance_m"] == 0.08 and door["entered"] is True
+    assert door["min_clearance_m"] == 0.12 and door["entered"] is True
+    assert door["outline_clearance_m"] == 0.08
+    r = Recorder("g1")  # a door only ever passed: no outline figure
+    r.on_sim_status(SimStatus(1.0, 0, False, 0.3, 0.12, doors=[entered]))
+    assert r.report("x", 1.0)["door_clearance"][0]["outline_clearance_m"] is None
