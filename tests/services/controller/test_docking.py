@@ -37,12 +37,16 @@ def drive(
     th: float,
     limit_s: float = 20.0,
     obstacles: np.ndarray | None = None,
+    poses: list[tuple[float, float, float]] | None = None,
 ) -> Drive:
     """Drive the model (first-order motor lag) until the docker reports arrival or the
-    limit; ``obstacles`` (N, 2) are the points the docker is given every cycle."""
+    limit; ``obstacles`` (N, 2) are the points the docker is given every cycle; ``poses``
+    gets every pose driven through."""
     v = w = top = turned = t = 0.0
     dt = 1.0 / RATE
     while t < limit_s:
+        if poses is not None:
+            poses.append((x, y, th))
         cmd = docker.step(x, y, th, obstacles=obstacles, period_s=dt)
         if cmd.state == "arrived":
             return Drive(x, y, th, t, top, turned, True)
@@ -458,3 +462,43 @@ def test_a_manoeuvre_onto_a_pose_beside_a_leaf_seen_through_range_noise(tmp_path
     leaf = np.column_stack((face - np.abs(rng.normal(0.0, 0.015, ys.size)), ys))
     across, note = across_after_planning(goal, np.vstack((walls, leaf)))
     assert across <= 0.05, note
+
+
+def _wall(x1: float, y1: float, x2: float, y2: float) -> np.ndarray:
+    n = max(2, int(math.hypot(x2 - x1, y2 - y1) / 0.025) + 1)
+    return np.column_stack([np.linspace(x1, x2, n), np.linspace(y1, y2, n)])
+
+
+def test_a_manoeuvre_before_a_door_stays_on_its_side_of_the_door() -> None:
+    # camp23 b6.m04: from one door's exit to the next door's approach across a 1.8 m deep
+    # room (doors in series), the manoeuvre went out through the open doorway it was to
+    # pass next and turned in it, 0.076 m from a jamb where 0.182 m was needed. The door
+    # it docks before is a wall to the manoeuvre (``keep_out``).
+    from shared.config import RobotConfig as Robot
+
+    points = np.vstack(
+        [
+            _wall(12.75, 24.4, 12.75, 25.3),  # the room's west wall, the doorway (1.1 m)
+            _wall(12.75, 26.4, 12.75, 27.6),
+            _wall(12.5, 23.0, 12.5, 25.3),  # its far face, on the corridor
+            _wall(12.5, 26.4, 12.5, 29.0),
+            _wall(12.5, 25.3, 12.75, 25.3),  # the jambs
+            _wall(12.5, 26.4, 12.75, 26.4),
+            _wall(10.9, 23.0, 10.9, 29.0),  # the corridor's far wall
+            _wall(14.55, 24.4, 14.55, 26.3),  # the east wall and the door just passed
+            _wall(14.55, 27.2, 14.55, 27.6),
+            _wall(12.75, 24.4, 14.55, 24.4),
+            _wall(12.75, 27.6, 14.55, 27.6),
+            _wall(12.65, 25.275, 13.75, 25.275),  # the door's leaf, open into the room
+            _wall(12.65, 25.325, 13.75, 25.325),
+        ]
+    )
+    door = np.array([[12.65, 25.3, 12.65, 26.4]])
+    docker = Docker(DOCK, Robot().footprint, 0.05)
+    docker.set_goal(13.65, 25.8625, math.pi, keep_out=door)
+    poses: list[tuple[float, float, float]] = []
+    end = drive(docker, 13.81, 26.75, math.pi, 90.0, obstacles=points, poses=poses)
+    fp = Robot().footprint
+    front = [x + fp.front * math.cos(th) for x, _y, th in poses]
+    assert min(front) > 12.75 - 0.05  # its nose never past the room's wall into the doorway
+    assert end.arrived and math.hypot(end.x - 13.65, end.y - 25.8625) <= DOCK.position_tolerance_m
