@@ -173,6 +173,18 @@ def _pass_timeout(distance_m: float, speed: float) -> float:
     return max(10.0, 4 * distance_m / speed)
 
 
+def doorway(cp) -> np.ndarray | None:
+    """The door checkpoint's opening as a segment (1, 4), for Phase 0 and 1 to count as a
+    wall: a manoeuvre before a door must not turn in its doorway or go through it (campaign
+    b6.m04 did, past the open leaf of the second of two doors in series). None for others."""
+    if cp.kind != "door" or cp.centre is None or cp.width_m <= 0:
+        return None
+    h = cp.approach.theta
+    ax, ay = -math.sin(h) * cp.width_m / 2, math.cos(h) * cp.width_m / 2
+    cx, cy = cp.centre.x, cp.centre.y
+    return np.array([[cx - ax, cy - ay, cx + ax, cy + ay]])
+
+
 def _correct(
     cp, name: str, p: EntryParams, clock, record, reach_m: float = 0.0
 ) -> py_trees.behaviour.Behaviour:
@@ -191,6 +203,7 @@ def _correct(
         nav.heading_tolerance_deg,
         nav.correction_attempts,
         nav.correction_stall_s,
+        keep_out=doorway(cp),
     )
     limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
     if reach_m > 0:
@@ -223,6 +236,7 @@ def _door_steps(
         nav.correction_attempts,
         nav.correction_stall_s,
         face=(e.x, e.y),
+        keep_out=doorway(cp),
     )
     steps: list[py_trees.behaviour.Behaviour] = [
         _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m),

@@ -93,9 +93,26 @@ class StopChair(FleetBehaviour):
         return Status.SUCCESS
 
 
-def dock_path(path_id: str, floor: str, x: float, y: float, heading: float, speed: float) -> Path:
-    """A docking manoeuvre to (x, y) facing ``heading`` at up to ``speed``."""
-    return Path(0.0, path_id, floor, np.array([[x, y]]), np.array([speed]), dock_heading=heading)
+def dock_path(
+    path_id: str,
+    floor: str,
+    x: float,
+    y: float,
+    heading: float,
+    speed: float,
+    keep_out: np.ndarray | None = None,
+) -> Path:
+    """A docking manoeuvre to (x, y) facing ``heading`` at up to ``speed``; its manoeuvres
+    count the ``keep_out`` segments (N, 4) as walls."""
+    return Path(
+        0.0,
+        path_id,
+        floor,
+        np.array([[x, y]]),
+        np.array([speed]),
+        dock_heading=heading,
+        keep_out=np.zeros((0, 4)) if keep_out is None else np.asarray(keep_out, float),
+    )
 
 
 class DockAt(FleetBehaviour):
@@ -111,7 +128,8 @@ class DockAt(FleetBehaviour):
 
     ``heading`` None means "face ``face`` (x, y) from wherever the chair stands": the
     seed's Phase 1 turn towards the exit pose, on the spot. The final errors are its
-    feedback (the mission report measures them on the ground truth).
+    feedback (the mission report measures them on the ground truth). ``keep_out``:
+    segments (N, 4) its manoeuvres count as walls (the doorway of the door ahead).
     """
 
     def __init__(
@@ -127,8 +145,10 @@ class DockAt(FleetBehaviour):
         attempts: int = 3,
         stall_s: float = 4.0,
         face: tuple[float, float] | None = None,
+        keep_out: np.ndarray | None = None,
     ) -> None:
         super().__init__(name)
+        self.keep_out = keep_out
         self.phase = phase
         self.floor = floor
         self.target, self.heading, self.face = target, heading, face
@@ -165,7 +185,9 @@ class DockAt(FleetBehaviour):
         self._best_at = self.fleet.now()
         self._path_id = f"{self.name} #{self._tries}"
         x, y, h = self._goal
-        self.fleet.send_path(dock_path(self._path_id, self.floor, x, y, h, self.speed))
+        self.fleet.send_path(
+            dock_path(self._path_id, self.floor, x, y, h, self.speed, self.keep_out)
+        )
 
     def heading_off_rad(self) -> float:
         """How far the pose estimate faces from the goal heading now (0: turning to face a

@@ -164,6 +164,8 @@ class Path(Msg):
     ``dock_heading``: set, the path is a docking manoeuvre to its last waypoint, ending
     facing this heading (position correction before a door, idle motion); ``v_ref[0]``
     caps its speed. See services/controller/docking.py.
+    ``keep_out``: segments (x1, y1, x2, y2) a docking manoeuvre counts as walls: the
+    doorway of the door it docks before, which it must not turn in nor go through.
     """
 
     stamp: float = num(*STAMP)
@@ -175,6 +177,9 @@ class Path(Msg):
     precise: bool = False
     zones: list[str] = field(default_factory=list)
     dock_heading: float | None = num(*ANGLE, default=None)
+    keep_out: np.ndarray = array(
+        "float64", (None, 4), limit=COORD[1], default_factory=lambda: np.zeros((0, 4))
+    )
 
     def validate(self) -> None:
         n = len(self.waypoints)

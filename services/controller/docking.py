@@ -115,6 +115,18 @@ class DockLimits:
         )
 
 
+def _segment_points(segments: np.ndarray | None) -> np.ndarray:
+    """Points (N, 2) along each segment (x1, y1, x2, y2), half a manoeuvre cell apart:
+    a wall to the manoeuvre search."""
+    if segments is None or len(segments) == 0:
+        return np.zeros((0, 2))
+    out = []
+    for x1, y1, x2, y2 in np.asarray(segments, dtype=float):
+        n = max(2, int(math.ceil(math.hypot(x2 - x1, y2 - y1) / (ROOM_CELL_M / 2))) + 1)
+        out.append(np.column_stack([np.linspace(x1, x2, n), np.linspace(y1, y2, n)]))
+    return np.vstack(out)
+
+
 class Docker:
     """Drives to one pose (x, y, heading); ``set_goal`` starts, ``clear`` stops."""
 
@@ -135,6 +147,7 @@ class Docker:
         self._obstacles: np.ndarray | None = None
         self._target: tuple[float, float, float] | None = None  # the goal behind a manoeuvre
         self._via: list[tuple[float, float, float]] = []
+        self._keep_out = np.zeros((0, 2))  # points along segments a manoeuvre counts as walls
         self._planned = False
         self.plan_note = ""  # what the last manoeuvre search found, for the node's log
         self._cramped = False  # a turn the short way would sweep into a point
@@ -146,9 +159,18 @@ class Docker:
     def active(self) -> bool:
         return self.goal is not None
 
-    def set_goal(self, x: float, y: float, heading: float, max_speed: float | None = None) -> None:
-        """Dock at (x, y) facing ``heading``; ``max_speed`` caps the speed (idle motion)."""
+    def set_goal(
+        self,
+        x: float,
+        y: float,
+        heading: float,
+        max_speed: float | None = None,
+        keep_out: np.ndarray | None = None,
+    ) -> None:
+        """Dock at (x, y) facing ``heading``; ``max_speed`` caps the speed (idle motion);
+        a manoeuvre counts the ``keep_out`` segments (N, 4: x1, y1, x2, y2) as walls."""
         self._target, self._via, self._planned = (x, y, heading), [], False
+        self._keep_out = _segment_points(keep_out)
         self._still_s, self._still_at, self._cramped = 0.0, None, False
         self._sidesteps = 0
         self._aim(
@@ -198,7 +220,7 @@ class Docker:
         lo = np.minimum((x, y), goal[:2]) - ROOM_REACH_M
         hi = np.maximum((x, y), goal[:2]) + ROOM_REACH_M
         shape = np.ceil((hi - lo) / ROOM_CELL_M).astype(int)
-        pts = np.asarray(obstacles, dtype=float)[:, :2]
+        pts = np.vstack([np.asarray(obstacles, dtype=float)[:, :2], self._keep_out])
         cells = np.floor((pts - lo) / ROOM_CELL_M).astype(int)
         inside = (cells >= 0).all(axis=1) & (cells < shape).all(axis=1)
         occupied = np.zeros((shape[1], shape[0]), dtype=bool)

@@ -61,7 +61,13 @@ def main(argv: list[str] | None = None) -> None:
 
         def on_path(msg: Path) -> None:
             tracker.set_path(
-                msg.path_id, msg.waypoints, msg.v_ref, msg.reverse, msg.precise, msg.dock_heading
+                msg.path_id,
+                msg.waypoints,
+                msg.v_ref,
+                msg.reverse,
+                msg.precise,
+                msg.dock_heading,
+                msg.keep_out,
             )
             svc.log.info(
                 "path %s: %d waypoints%s",

@@ -115,16 +115,18 @@ class Tracker:
         reverse: bool = False,
         precise: bool = False,
         dock_heading: float | None = None,
+        keep_out: np.ndarray | None = None,
     ) -> None:
         """Follow a path; reverse and precise (door, lift car) passes use pure pursuit,
-        a path with ``dock_heading`` is a docking manoeuvre to its last waypoint."""
+        a path with ``dock_heading`` is a docking manoeuvre to its last waypoint, whose
+        manoeuvres count the ``keep_out`` segments (N, 4) as walls."""
         self.docker.clear()
         self.stall.reset()
         self._precise = precise
         if dock_heading is not None and len(waypoints) > 0:
             cap = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else None
             gx, gy = float(waypoints[-1][0]), float(waypoints[-1][1])
-            self.docker.set_goal(gx, gy, dock_heading, cap)
+            self.docker.set_goal(gx, gy, dock_heading, cap, keep_out)
             waypoints, v_ref = np.zeros((0, 2)), np.zeros(0)
         self.pursuit.set_path(path_id, waypoints, v_ref, reverse, precise)
         self.use_mpc = self.mpc is not None and not reverse and not precise and len(waypoints) > 0

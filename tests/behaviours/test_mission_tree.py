@@ -7,6 +7,8 @@ its heading) and says so.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import py_trees
 import pytest
@@ -196,6 +198,27 @@ def test_a_correction_within_tolerance_is_accepted() -> None:
     fleet.arrive(off=(0.1, 0.05))  # 0.11 m off: within 0.15 m
     tree.tick()
     assert fleet.sent[-1].path_id == "Turn d1 #1"
+
+
+def test_phase_0_and_1_count_the_doorway_ahead_as_a_wall() -> None:
+    # campaign b6.m04: a manoeuvre to the second of two doors in series went out through
+    # its doorway; the correction and the turn tell the controller where the doorway is
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = replace(door(), centre=Pose2D(2.2, 0.0, 0.0, "1"))
+    tree = route_tree(route(cp), fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    correct = fleet.sent[-1]
+    assert correct.path_id == "Correct d1 #1" and correct.dock_heading is not None
+    np.testing.assert_allclose(correct.keep_out, [[2.2, -0.5, 2.2, 0.5]], atol=1e-9)
+    fleet.arrive()
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Turn d1 #1"
+    np.testing.assert_allclose(fleet.sent[-1].keep_out, correct.keep_out)
+    leg_path = fleet.sent[0]
+    assert leg_path.keep_out.shape == (0, 4)  # a leg followed has none
 
 
 def test_automatic_door_gets_idle_motion_until_it_opens() -> None:
