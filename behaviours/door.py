@@ -13,7 +13,7 @@ from py_trees.common import Status
 
 from behaviours.fleet import FleetBehaviour, OpenInScans
 from behaviours.motion import dock_path
-from shared.messages import DoorMode, Phase
+from shared.messages import DoorMode, Path, Phase
 
 
 class RequestDoor(FleetBehaviour):
@@ -152,3 +152,100 @@ class IdleMotion(FleetBehaviour):
     def terminate(self, new_status: Status) -> None:
         if new_status == Status.INVALID and self.fleet is not None:
             self.fleet.stop()
+
+
+class SmoothDoorPass(FleetBehaviour):
+    """Pass a door without stopping (issue 14; services/controller/smooth_pass.py).
+
+    Sends the smooth pass at once, from wherever the leg before handed over at speed, and
+    checks the door while the chair closes in: open by the building (where the door has a
+    controller) and by the LiDAR in ``scans`` scans in a row. FAILURE, the chair stopped,
+    when the door is not seen open by the time the chair's front is ``commit_m`` before
+    the door plane, when it is seen closing before the front reaches the plane, or when
+    the controller gives up (facing away from the door: "fallback"; "blocked"): the
+    stop-turn-go steps beside it in a selector take over. SUCCESS once through, still
+    moving: its rear ``commit_m`` past the plane, the next leg takes over.
+    """
+
+    phase = Phase.PASS
+
+    def __init__(
+        self,
+        door_id: str,
+        path: Path,
+        centre: tuple[float, float],
+        heading: float,
+        width_m: float,
+        front_m: float,
+        rear_m: float,
+        scans: int = 3,
+        building: bool = True,
+        commit_m: float = 0.5,
+    ) -> None:
+        super().__init__(f"Smooth pass {door_id}")
+        self.door_id = door_id
+        self.path = path
+        self.centre = centre
+        self.normal = (math.cos(heading), math.sin(heading))
+        self.width_m = width_m
+        self.front_m = front_m
+        self.rear_m = rear_m
+        self.building = building
+        self.commit_m = commit_m
+        self.lidar = OpenInScans(scans)
+        self.verified = False
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self.lidar.reset()
+        self.verified = False
+        self.fleet.send_path(self.path)
+
+    def _front_to_plane(self) -> float | None:
+        """How far the chair's front still is before the door plane (negative: past it)."""
+        est = self.fleet.pose()
+        if est is None:
+            return None
+        p = est.pose
+        nose = (p.x + self.front_m * math.cos(p.theta), p.y + self.front_m * math.sin(p.theta))
+        return -(
+            (nose[0] - self.centre[0]) * self.normal[0]
+            + (nose[1] - self.centre[1]) * self.normal[1]
+        )
+
+    def _out(self, to_go: float) -> bool:
+        """True once the chair's rear is ``commit_m`` past the door plane (``to_go`` of the
+        pass left): the next leg takes over at speed, as the leg before handed over."""
+        through = self.path.door[5] if len(self.path.door) == 6 else 0.0
+        return to_go <= through - self.rear_m - self.commit_m
+
+    def _give_up(self, why: str) -> Status:
+        self.fleet.stop()
+        self.feedback_message = f"{why}: stop-turn-go instead"
+        return Status.FAILURE
+
+    def update(self) -> Status:
+        status = self.fleet.follow_status()
+        mine = status is not None and status.path_id == self.path.path_id
+        if mine and (status.state == "arrived" or self._out(status.distance_to_goal)):
+            self.feedback_message = "through"
+            return Status.SUCCESS
+        if mine and status.state in ("fallback", "blocked"):
+            return self._give_up(f"controller: {status.state}")
+        mode = self.fleet.door_mode(self.door_id) if self.building else DoorMode.OPEN
+        ahead = self._front_to_plane()
+        if not self.verified:
+            seen = self.lidar.update(*self.fleet.lidar_door_state(*self.centre, self.width_m))
+            self.verified = mode == DoorMode.OPEN and seen
+            if not self.verified and ahead is not None and ahead <= self.commit_m:
+                return self._give_up(f"door {self.door_id} not seen open in time ({self.lidar})")
+        elif mode != DoorMode.OPEN and ahead is not None and ahead > 0:
+            return self._give_up(f"door {self.door_id} no longer open")
+        self.feedback_message = (
+            f"{'open' if self.verified else 'checking'}, front "
+            f"{ahead if ahead is not None else float('nan'):.2f} m before the plane"
+        )
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        self.stop_if_driving(new_status)

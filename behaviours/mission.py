@@ -44,7 +44,13 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
-from behaviours.door import IdleMotion, ReleaseDoor, RequestDoor, WaitForDoorOpen
+from behaviours.door import (
+    IdleMotion,
+    ReleaseDoor,
+    RequestDoor,
+    SmoothDoorPass,
+    WaitForDoorOpen,
+)
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import NS, FleetBehaviour
 from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
@@ -147,12 +153,15 @@ class EntryParams:
     front_m: float
     rear_m: float
     half_width_m: float = 0.325
+    cruise_speed: float = 0.5
 
     @classmethod
     def from_config(cls, cfg: FleetConfig) -> EntryParams:
-        """The navigator section, the planner's door speed and the robot's footprint."""
+        """The navigator section, the planner's door and cruise speeds and the robot's
+        footprint."""
         fp = cfg.robot.footprint
-        return cls(cfg.navigator, cfg.planner.door_speed, fp.front, fp.rear, fp.width / 2)
+        pl = cfg.planner
+        return cls(cfg.navigator, pl.door_speed, fp.front, fp.rear, fp.width / 2, pl.cruise_speed)
 
     @property
     def turn_radius_m(self) -> float:
@@ -321,7 +330,60 @@ def _door_steps(
     if cp.door_type == "powered" and building:
         middle = cp.centre or Pose2D((a.x + e.x) / 2, (a.y + e.y) / 2, a.theta)
         steps.append(ReleaseDoor(cp.id, cp.floor, (middle.x, middle.y, middle.theta), cp.width_m))
-    return py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=steps)
+    stop_turn_go = py_trees.composites.Sequence(f"Door {cp.id}", memory=True, children=steps)
+    if not _smooth(cp, nav, reach_m):
+        return stop_turn_go
+    stop_turn_go.name = f"Stop-turn-go {cp.id}"
+    smooth = _smooth_pass(cp, route_id, p)
+    limit = _pass_timeout(float(smooth.path.door[4] + smooth.path.door[5]), p.door_speed)
+    return py_trees.composites.Selector(
+        f"Door {cp.id}",
+        memory=True,
+        children=[Timeout(f"Smooth {cp.id}", smooth, limit, clock, record), stop_turn_go],
+    )
+
+
+def _smooth(cp, nav: NavigatorConfig, reach_m: float) -> bool:
+    """True if ``cp`` is passed smoothly (``navigator.door_procedure``): a manual door with
+    a known centre, after a leg that is followed (not docked: a series room)."""
+    return (
+        nav.door_procedure == "smooth"
+        and cp.kind == "door"
+        and cp.door_type == "manual"
+        and cp.centre is not None
+        and not reach_m
+    )
+
+
+def _smooth_pass(cp, route_id: str, p: EntryParams) -> SmoothDoorPass:
+    """The smooth pass of door ``cp``: from its approach pose's line (where the curve
+    joins the centre line) to its exit pose, at up to the cruise speed (the controller
+    slows for the curve and the doorway)."""
+    a, e, c = cp.approach, cp.exit, cp.centre
+    n = (math.cos(a.theta), math.sin(a.theta))
+    lead = max(0.0, (c.x - a.x) * n[0] + (c.y - a.y) * n[1])
+    through = max(0.1, (e.x - c.x) * n[0] + (e.y - c.y) * n[1])
+    path = Path(
+        0.0,
+        f"{route_id}.smooth.{cp.id}",
+        cp.floor,
+        np.array([[a.x, a.y], [e.x, e.y]]),
+        np.array([p.cruise_speed, 0.0]),
+        precise=True,
+        door=[c.x, c.y, a.theta, cp.width_m, lead, through],
+    )
+    return SmoothDoorPass(
+        cp.id,
+        path,
+        (c.x, c.y),
+        a.theta,
+        cp.width_m,
+        p.front_m,
+        p.rear_m,
+        p.nav.door_scans,
+        building=cp.controller,
+        commit_m=p.nav.smooth_commit_m,
+    )
 
 
 def _elevator_steps(
@@ -481,7 +543,9 @@ def create_route_tree(
         after_door = i > 0 and route.checkpoints[i - 1].kind == "door"
         docked = _docked_instead(leg, after_door, nav) if cp is not None else 0.0
         if not docked:
-            follow = FollowPath(leg, f"Follow leg {i}")
+            smooth = cp is not None and _smooth(cp, nav, docked)
+            handover = nav.smooth_handover_m if smooth else 0.0
+            follow = FollowPath(leg, f"Follow leg {i}", handover_m=handover)
             steps.append(Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record))
         if cp is None:
             continue

@@ -23,7 +23,9 @@ MOVING_RAD_S = 0.02
 class FollowPath(FleetBehaviour):
     """Send ``path`` to the controller and wait until it reports arrival.
 
-    RUNNING while the controller follows; SUCCESS on ``arrived`` for this path. A controller
+    RUNNING while the controller follows; SUCCESS on ``arrived`` for this path, or with
+    ``handover_m`` > 0 once that little is left (the chair still moving: the next step
+    sends its own path at once, as a smooth door pass does). A controller
     that reports ``idle`` without this path (it was restarted) gets the path again. Never
     FAILURE itself: the timeout above it bounds the wait. ``terminate`` on pre-emption
     stops the chair.
@@ -31,10 +33,13 @@ class FollowPath(FleetBehaviour):
 
     phase = Phase.FOLLOW
 
-    def __init__(self, path: Path, name: str = "", phase: Phase = Phase.FOLLOW) -> None:
+    def __init__(
+        self, path: Path, name: str = "", phase: Phase = Phase.FOLLOW, handover_m: float = 0.0
+    ) -> None:
         super().__init__(name or f"Follow {path.path_id}")
         self.path = path
         self.phase = phase
+        self.handover_m = handover_m
         self.path_id = path.path_id
         self.sent_at = 0.0
 
@@ -65,6 +70,8 @@ class FollowPath(FleetBehaviour):
         self.feedback_message = (
             f"{status.state}: {100 * status.progress:.0f} %, {status.distance_to_goal:.2f} m to go"
         )
+        if status.state == "following" and status.distance_to_goal <= self.handover_m:
+            return True  # the next step takes over at speed (a smooth door pass)
         return status.state == "arrived"
 
     def update(self) -> Status:

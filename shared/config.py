@@ -339,6 +339,19 @@ class ControllerConfig:
     # chair enters a doorway within 3 cm of its centre only from a pose near the line
     dock_lateral_tolerance_m: float = field(default=0.015, metadata=check(_positive))
     dock_reverse_reach_m: float = field(default=1.0, metadata=check(_non_negative))
+    # a smooth door pass (navigator.door_procedure "smooth"): the speed is cut where the
+    # Bézier's curvature asks more lateral acceleration than this; pure pursuit looks this
+    # far ahead along the curve and the door's centre line
+    smooth_lateral_accel: float = field(default=0.3, metadata=check(_positive))
+    smooth_lookahead_m: float = field(default=0.4, metadata=check(_positive))
+    # in the doorway (any of the chair within smooth_zone_m of the door plane) at most
+    # smooth_gap_rate x the gap a side: the seed's 0.2 m/s at the paper's 0.80 m door and
+    # 0.65 m chair (7.5 cm a side) is 2.67 /s, a 1.0 m door allows 0.47 m/s; a door of
+    # unknown width is passed at smooth_doorway_speed; braking into it at smooth_decel
+    smooth_gap_rate: float = field(default=2.67, metadata=check(_positive))
+    smooth_doorway_speed: float = field(default=0.2, metadata=check(_positive))
+    smooth_zone_m: float = field(default=0.3, metadata=check(_non_negative))
+    smooth_decel: float = field(default=0.3, metadata=check(_positive))
     mpc: MPCConfig = field(default_factory=MPCConfig)
 
 
@@ -374,6 +387,16 @@ class NavigatorConfig:
     follow_timeout_s: float = field(default=600.0, metadata=check(_positive))
     door_timeout_s: float = field(default=60.0, metadata=check(_positive))
     lift_timeout_s: float = field(default=120.0, metadata=check(_positive))
+    # how a door is passed: "stop_turn_go" (the seed's: correct, turn, verify, pass) or
+    # "smooth" (issue 14: a door seen open from the leg before it is passed without
+    # stopping, on a Bézier onto the door the scan shows; stop-turn-go stays its fallback
+    # and the way for a closed door, an automatic or a powered one)
+    door_procedure: str = field(default="stop_turn_go", metadata=_one_of("stop_turn_go", "smooth"))
+    # smooth: the leg before the door hands over this far before its end, at speed; the
+    # door must be seen open (building and LiDAR) before the chair's front is
+    # smooth_commit_m before the door plane, or the chair stops and does stop-turn-go
+    smooth_handover_m: float = field(default=1.0, metadata=check(_non_negative))
+    smooth_commit_m: float = field(default=0.5, metadata=check(_non_negative))
     # while a mission holds a lift or a powered door it asked open, it asks again this
     # often (the building's sessions are leases, building.lift_session_lease_s and
     # building.door_session_lease_s); keep it well under those leases

@@ -17,6 +17,7 @@ Conventions:
 
 from __future__ import annotations
 
+import math
 from dataclasses import MISSING, dataclass, field
 from enum import StrEnum
 from typing import ClassVar
@@ -166,6 +167,12 @@ class Path(Msg):
     caps its speed. See services/controller/docking.py.
     ``keep_out``: segments (x1, y1, x2, y2) a docking manoeuvre counts as walls: the
     doorway of the door it docks before, which it must not turn in nor go through.
+    ``door``: set, the path is a smooth pass through a door, [x, y, heading, width_m,
+    lead_m, through_m]: the mapped door centre, the heading through it, its width, where
+    the curve joins the centre line (``lead_m`` before the plane) and where the pass ends
+    (``through_m`` past it); the controller steers onto the door it sees in the scan
+    (services/controller/smooth_pass.py), at up to ``v_ref[0]``; the waypoints are the
+    pass as planned (approach to exit pose).
     """
 
     stamp: float = num(*STAMP)
@@ -180,9 +187,18 @@ class Path(Msg):
     keep_out: np.ndarray = array(
         "float64", (None, 4), limit=COORD[1], default_factory=lambda: np.zeros((0, 4))
     )
+    door: list[float] = field(default_factory=list)
 
     def validate(self) -> None:
         n = len(self.waypoints)
+        if self.door and (len(self.door) != 6 or not all(math.isfinite(v) for v in self.door)):
+            raise Invalid(
+                "door", f"{len(self.door)} value(s): [x, y, heading, width, lead, through]"
+            )
+        if self.door and (self.door[3] < 0 or self.door[4] < 0 or self.door[5] <= 0):
+            raise Invalid("door", "width and lead must be >= 0, through > 0 (metres)")
+        if self.door and n == 0:
+            raise Invalid("door", "a door pass needs its waypoints")
         _same_length("v_ref", self.v_ref, "waypoints", n, "waypoint(s)")
         if self.zones:
             _same_length("zones", self.zones, "waypoints", n, "waypoint(s)")

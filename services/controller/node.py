@@ -68,6 +68,7 @@ def main(argv: list[str] | None = None) -> None:
                 msg.precise,
                 msg.dock_heading,
                 msg.keep_out,
+                msg.door,
             )
             svc.log.info(
                 "path %s: %d waypoints%s",
@@ -91,6 +92,10 @@ def main(argv: list[str] | None = None) -> None:
                     else None
                 )
                 p = pose.pose
+                new_scan = None
+                if scan is not None and scan.stamp != latest.get("scan_used"):
+                    latest["scan_used"] = scan.stamp
+                    new_scan = scan.points
                 cmd = tracker.step(
                     p.x,
                     p.y,
@@ -101,6 +106,7 @@ def main(argv: list[str] | None = None) -> None:
                     obstacles,
                     fresh,
                     1.0 / cc.rate_hz,
+                    new_scan,
                 )
                 if tracker.docker.plan_note != noted[0]:
                     noted[0] = tracker.docker.plan_note

@@ -6,8 +6,9 @@ door's centre line ``lead_m`` before its plane, facing through it; the chair fol
 smoothest curve onto it (``door_bezier``), re-planned from the current pose and the latest
 estimate each cycle, then the centre line itself through the doorway until its reference
 point is ``through_m`` past the plane. Steering is pure pursuit on that path; the speed is
-the door speed, less where the curve's curvature asks more than the lateral acceleration
-allows. Facing away from the door (no curve) it asks for stop-turn-go instead. Pure: no
+the path's, less where the curve's curvature asks more than the lateral acceleration
+allows, and in the doorway as much as the gap a side allows (``PassSettings``; braking
+into it). Facing away from the door (no curve) it asks for stop-turn-go instead. Pure: no
 I/O; poses in the map frame, scan points in the sensor frame at the pose.
 """
 
@@ -26,7 +27,11 @@ RUNNING, THROUGH, FALLBACK = "running", "through", "fallback"
 
 @dataclass(frozen=True)
 class PassSettings:
-    """How a smooth pass drives (the fleet config's door speed, the footprint's front)."""
+    """How a smooth pass drives. ``door_speed``: the most anywhere (the path's speed);
+    in the doorway, while any of the chair is within ``zone_m`` of the door plane, at most
+    ``gap_rate`` times the gap a side ((door width - chair width) / 2: the seed's 0.2 m/s
+    at the paper's 7.5 cm is 2.67 per second) and ``doorway_speed``; braking into it at
+    ``decel``."""
 
     door_speed: float = 0.2
     lateral_accel: float = 0.3
@@ -34,6 +39,14 @@ class PassSettings:
     through_m: float = 1.2  # done when the reference point is this far past the plane
     lookahead_m: float = 0.4
     join_m: float = 0.5  # the scan's doorway is the mapped one within this distance
+    door_width: float = 0.0  # the mapped width (0: unknown: the doorway speed applies)
+    chair_width: float = 0.65
+    front_m: float = 0.76
+    rear_m: float = 0.35
+    gap_rate: float = 0.2 / 0.075
+    doorway_speed: float = 0.2
+    zone_m: float = 0.3
+    decel: float = 0.3
 
 
 class SmoothPass:
@@ -50,6 +63,7 @@ class SmoothPass:
         self.normal = np.array([math.cos(door_normal), math.sin(door_normal)])
         self.tracker = DoorTracker()
         self.centre = self.mapped.copy()  # the mapped door until the scan shows it
+        self.width = self.settings.door_width  # as the scan shows it, once it does
         self.seen = 0  # sightings fused into the estimate used
 
     def _update_door(self, pose: tuple[float, float, float], scan: np.ndarray | None) -> None:
@@ -63,9 +77,37 @@ class SmoothPass:
         ]
         if near:
             best = max(near, key=lambda e: e.sightings)
-            self.centre, self.seen = best.centre, best.sightings
+            self.centre, self.seen, self.width = best.centre, best.sightings, best.width
             n = best.normal if np.dot(best.normal, self.normal) > 0 else -best.normal
             self.normal = n
+
+    def doorway_speed(self) -> float:
+        """The most in the doorway: the side gap times ``gap_rate``, at most
+        ``doorway_speed`` when the width is unknown or the gap is that of the paper's door."""
+        s = self.settings
+        if self.width <= 0:
+            return min(s.doorway_speed, s.door_speed)
+        gap = max(0.0, (self.width - s.chair_width) / 2)
+        return max(min(s.door_speed, s.gap_rate * gap), 0.05)
+
+    def _doorway_limit(self, past: float) -> float:
+        """The speed limit where the reference point is ``past`` the door plane: the
+        doorway speed while the footprint is within ``zone_m`` of the plane, braking into
+        it before, the door speed once the rear is out of it."""
+        s = self.settings
+        v_door = self.doorway_speed()
+        to_zone = -(past + s.front_m) - s.zone_m  # the front's way to the zone
+        if to_zone > 0:
+            return math.sqrt(v_door**2 + 2 * s.decel * to_zone)
+        if past - s.rear_m > s.zone_m:
+            return s.door_speed
+        return v_door
+
+    def to_go(self, pose: tuple[float, float, float]) -> float:
+        """How far the reference point still is from the pass's end, along the door's
+        normal (from before the plane: the lead and the curve's start not counted)."""
+        past = float(np.dot(np.array(pose[:2]) - self.centre, self.normal))
+        return max(0.0, self.settings.through_m - past)
 
     def step(
         self, pose: tuple[float, float, float], scan: np.ndarray | None
@@ -90,6 +132,7 @@ class SmoothPass:
             path = np.vstack([curve.points, line_end])
             near = int(np.argmin(np.hypot(*(curve.points - p).T)))
             limit = float(curve.speed_limit(s.door_speed, s.lateral_accel)[near])
+        limit = min(limit, self._doorway_limit(past))
         target = _ahead(path, p, s.lookahead_m)
         dx, dy = target - p
         c, sn = math.cos(pose[2]), math.sin(pose[2])

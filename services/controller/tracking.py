@@ -7,8 +7,9 @@ car), precise passes (through a door, into a car: the MPC's safety margins leave
 in a 1.0 m door) and the last ``controller.final_approach_m`` of a path (the MPC's costs
 flatten out where v_ref falls to 0; pure pursuit docks on the approach pose). ``pursuit``
 uses pure pursuit throughout. A path with ``dock_heading`` set is a docking manoeuvre
-(:mod:`services.controller.docking`) whatever the mode. Pure: the node hands in poses,
-speeds and points.
+(:mod:`services.controller.docking`) whatever the mode; one with ``door`` set is a smooth
+door pass (:mod:`services.controller.smooth_pass`, steered onto the door the scans show).
+Pure: the node hands in poses, speeds and points.
 """
 
 from __future__ import annotations
@@ -21,8 +22,11 @@ from services.controller.command import Command
 from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import SamplingMPC
 from services.controller.pure_pursuit import PathFollower
+from services.controller.smooth_pass import FALLBACK, THROUGH, PassSettings, SmoothPass
 from shared.config import ConfigError, ControllerConfig, RobotConfig
 from shared.site import Site
+
+MIN_SMOOTH_SPEED = 0.05  # m/s: a smooth pass without a usable v_ref[0] crawls at this
 
 
 class StallWatch:
@@ -55,6 +59,7 @@ class Tracker:
 
     def __init__(self, cfg: ControllerConfig, robot: RobotConfig, site: Site | None) -> None:
         self.cfg = cfg
+        self.robot = robot
         self.pursuit = PathFollower(cfg, robot)
         self.docker = Docker(
             DockLimits.from_config(cfg, robot), robot.footprint, robot.side_margin_m
@@ -64,6 +69,7 @@ class Tracker:
         self.floor = ""
         self.use_mpc = False
         self._precise = False
+        self.smooth: SmoothPass | None = None
         self.stall = StallWatch(cfg.stall_s, cfg.stall_progress_m)
         manoeuvre.warm_up()
         if cfg.mode == "mpc":
@@ -116,13 +122,37 @@ class Tracker:
         precise: bool = False,
         dock_heading: float | None = None,
         keep_out: np.ndarray | None = None,
+        door: list[float] | None = None,
     ) -> None:
         """Follow a path; reverse and precise (door, lift car) passes use pure pursuit,
         a path with ``dock_heading`` is a docking manoeuvre to its last waypoint, whose
-        manoeuvres count the ``keep_out`` segments (N, 4) as walls."""
+        manoeuvres count the ``keep_out`` segments (N, 4) as walls; one with ``door``
+        ([x, y, heading, width, lead_m, through_m]) is a smooth pass through that door."""
         self.docker.clear()
         self.stall.reset()
         self._precise = precise
+        self.smooth = None
+        if door and len(waypoints) > 0:
+            cx, cy, heading, width, lead, through = door
+            speed = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else MIN_SMOOTH_SPEED
+            cfg, fp = self.cfg, self.robot.footprint
+            settings = PassSettings(
+                door_speed=max(speed, MIN_SMOOTH_SPEED),
+                lateral_accel=cfg.smooth_lateral_accel,
+                lead_m=lead,
+                through_m=through,
+                lookahead_m=cfg.smooth_lookahead_m,
+                door_width=width,
+                chair_width=fp.width,
+                front_m=fp.front,
+                rear_m=fp.rear,
+                gap_rate=cfg.smooth_gap_rate,
+                doorway_speed=cfg.smooth_doorway_speed,
+                zone_m=cfg.smooth_zone_m,
+                decel=cfg.smooth_decel,
+            )
+            self.smooth = SmoothPass((cx, cy), heading, settings)
+            self._precise = True
         if dock_heading is not None and len(waypoints) > 0:
             cap = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else None
             gx, gy = float(waypoints[-1][0]), float(waypoints[-1][1])
@@ -147,8 +177,12 @@ class Tracker:
         obstacles: np.ndarray | None,
         fresh: bool,
         period_s: float,
+        scan: np.ndarray | None = None,
     ) -> Command:
-        """The command for this cycle (zero when the pose is stale or everything collides)."""
+        """The command for this cycle (zero when the pose is stale or everything collides).
+        ``scan``: a scan not seen before (sensor frame), for a smooth pass's door."""
+        if self.smooth is not None:
+            return self._smooth_step(x, y, theta, fresh, scan)
         if self.docker.active:
             return self.docker.step(x, y, theta, fresh, obstacles, period_s)
         if not self.use_mpc:
@@ -163,3 +197,21 @@ class Tracker:
         if cmd.state == "following" and self.stall.update(cmd.distance_to_goal, period_s):
             return Command(0.0, 0.0, "blocked", cmd.progress, cmd.distance_to_goal, cmd.cross_track)
         return cmd
+
+    def _smooth_step(
+        self, x: float, y: float, theta: float, fresh: bool, scan: np.ndarray | None
+    ) -> Command:
+        """A smooth door pass: "arrived" once through, "fallback" where it cannot (facing
+        away from the door: the navigator turns to stop-turn-go)."""
+        smooth = self.smooth
+        to_go = smooth.to_go((x, y, theta))
+        if not fresh:
+            return Command(0.0, 0.0, "stale", 0.0, to_go, 0.0)
+        v, w, state = smooth.step((x, y, theta), scan)
+        total = smooth.settings.lead_m + smooth.settings.through_m
+        progress = max(0.0, min(1.0, 1.0 - to_go / total))
+        if state == THROUGH:
+            return Command(0.0, 0.0, "arrived", 1.0, 0.0, 0.0)
+        if state == FALLBACK:
+            return Command(0.0, 0.0, "fallback", progress, to_go, 0.0)
+        return Command(v, w, "following", progress, to_go, 0.0)
