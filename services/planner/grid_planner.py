@@ -363,12 +363,14 @@ def densify(points: np.ndarray, spacing: float) -> np.ndarray:
 def speed_profile(
     waypoints: np.ndarray, cruise: float, slow_radius: float, min_speed: float = 0.1
 ) -> np.ndarray:
-    """Cruise speed, falling linearly within ``slow_radius`` of the goal, 0 at the goal."""
+    """Cruise speed, braking at a constant deceleration within ``slow_radius`` of the
+    goal (cruise x sqrt(distance left / slow_radius)), 0 at the goal: a speed falling
+    linearly with the distance never gets there, and crept at ``min_speed``."""
     legs = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
     to_go = np.concatenate([np.cumsum(legs[::-1])[::-1], [0.0]])
     if slow_radius <= 0:
         v = np.full(len(waypoints), cruise)
     else:
-        v = np.clip(cruise * to_go / slow_radius, min_speed, cruise)
+        v = np.clip(cruise * np.sqrt(to_go / slow_radius), min_speed, cruise)
     v[-1] = 0.0
     return v

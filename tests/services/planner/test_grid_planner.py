@@ -76,13 +76,14 @@ def test_speed_profile_slows_to_zero_at_the_goal() -> None:
 def test_speed_profile_brakes_at_a_constant_deceleration() -> None:
     # a speed falling linearly with the distance left never reaches the goal: clipped at
     # 0.1 m/s, the demo crept over its last 0.25 m for 1.8 s. Braking from cruise over
-    # slow_radius at a constant deceleration takes 2 slow_radius / cruise.
+    # slow_radius at a constant deceleration takes 2 slow_radius / cruise (less the last
+    # 4 cm, where the floor is faster); the linear fall takes 5.2 s here.
     pts = np.stack([np.linspace(0, 3, 3001), np.zeros(3001)], axis=1)
     v = speed_profile(pts, cruise=0.5, slow_radius=1.0)
     last = v[-1001:]  # the last metre, 1 mm apart
     mean = (last[1:] + last[:-1]) / 2
     seconds = float(np.sum(0.001 / np.maximum(mean, 1e-9)))
-    assert seconds == pytest.approx(2 * 1.0 / 0.5, rel=0.05)
+    assert 3.0 <= seconds <= 2 * 1.0 / 0.5
 
 
 def test_line_of_sight() -> None:
