@@ -617,3 +617,74 @@ def test_a_door_without_a_controller_is_verified_by_lidar_alone() -> None:
         tree.tick()
     assert fleet.sent[-1].path_id == "r.door.d1"  # passing, with no DoorState ever
     assert fleet.door_requests == []
+
+
+SMOOTH_DOOR = replace(door(), centre=Pose2D(2.2, 0.0, 0.0, "1"))
+
+
+def _following(fleet: ScriptedFleet, to_go: float) -> None:
+    path_id = fleet.sent[-1].path_id
+    fleet.follow = FollowStatus(fleet.t, path_id, "following", 0.5, to_go, 0.0)
+
+
+def test_a_door_seen_open_from_the_leg_is_passed_without_stopping() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    fleet.doors["d1"] = DoorMode.OPEN
+    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"
+    _following(fleet, 0.9)  # within smooth_handover_m of the leg's end: hand over, moving
+    fleet.x = 0.2
+    tree.tick()
+    smooth = fleet.sent[-1]
+    assert smooth.door == pytest.approx([2.2, 0.0, 0.0, 1.0, 1.2, 1.0]) and smooth.precise
+    assert fleet.stops == 0  # no stop between the leg and the pass
+    for _ in range(3):  # the door open by the building and by the LiDAR in 3 scans
+        _following(fleet, 1.5)
+        tree.tick()
+    fleet.x = 3.0  # through: its rear 0.5 m past the plane, the next leg takes over
+    _following(fleet, 0.15)
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.1" and fleet.stops == 0
+    assert not any(p.dock_heading is not None for p in fleet.sent)  # no Phase 0 nor 1
+
+
+def test_a_door_not_seen_open_in_time_is_passed_by_stop_turn_go() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    fleet.doors["d1"] = DoorMode.CLOSED
+    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
+    tree.tick()
+    _following(fleet, 0.9)
+    tree.tick()
+    assert fleet.sent[-1].door
+    _following(fleet, 1.5)
+    fleet.x = 1.0  # its front 0.44 m before the plane: within smooth_commit_m, not open
+    tree.tick()
+    assert fleet.commands[-2:] == ["stop", "Correct d1 #1"]
+
+
+def test_the_controller_falling_back_hands_the_door_to_stop_turn_go() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    fleet.doors["d1"] = DoorMode.OPEN
+    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
+    tree.tick()
+    _following(fleet, 0.9)
+    tree.tick()
+    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "fallback", 0.0, 2.0, 0.0)
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Correct d1 #1"
+
+
+def test_stop_turn_go_stays_for_automatic_doors_and_by_default() -> None:
+    for cp, nav in ((replace(SMOOTH_DOOR, door_type="automatic"), "smooth"), (SMOOTH_DOOR, None)):
+        blackboard()
+        fleet = ScriptedFleet(None)
+        kwargs = {"door_procedure": nav} if nav else {}
+        tree = route_tree(route(cp), fleet, **kwargs)
+        tree.tick()
+        _following(fleet, 0.9)
+        tree.tick()
+        assert fleet.sent[-1].path_id == "r.0"  # no handover: the leg runs to its end

@@ -63,6 +63,21 @@ CASES = {
         m.Path,
         "path.dock_heading: a docking path needs a waypoint",
     ),
+    "path: a door pass with 5 values": (
+        broken(path(), door=[6.2, 2.7, 0.0, 1.0, 1.0]),
+        m.Path,
+        "path.door: 5 value(s): [x, y, heading, width, lead, through]",
+    ),
+    "path: a door pass ending before the plane": (
+        broken(path(), door=[6.2, 2.7, 0.0, 1.0, 1.0, 0.0]),
+        m.Path,
+        "path.door: width and lead must be >= 0, through > 0 (metres)",
+    ),
+    "path: a door pass with NaN": (
+        broken(path(), door=[6.2, float("nan"), 0.0, 1.0, 1.0, 1.2]),
+        m.Path,
+        "path.door[1]: not finite",
+    ),
     "nested leg with mismatched speeds": (
         packed(
             {

@@ -56,3 +56,54 @@ def test_mpc_takes_the_chair_through_a_1m_door_without_touching_it() -> None:
     sim, _speeds = drive(path, 0.2, (5.2, 2.7, 0.0), 500)
     assert sim.state.x > 7.2  # through the 1.0 m doorway at x = 6.2
     assert sim.collisions == 0 and sim.min_clearance > 0.1
+
+
+def test_a_smooth_pass_path_goes_through_the_door_it_sees_without_stopping() -> None:
+    # the path the navigator sends for a smooth pass: door_ab (1.0 m at x = 6.2), the
+    # approach line 1.0 m before it, the end 1.2 m past; the chair starts 0.3 m aside
+    cfg = load(
+        None, ["sim.start.place=", "sim.start.x=3.8", "sim.start.y=2.4", "sim.start.theta=0.2"]
+    )
+    sim = Simulation(cfg, SITE)
+    sim.set_door_openings(["door_ab"], [1.0])
+    tracker = Tracker(cfg.controller, cfg.robot, SITE)
+    tracker.set_path(
+        "smooth",
+        np.array([[5.2, 2.7], [7.4, 2.7]]),
+        np.array([0.5, 0.0]),
+        precise=True,
+        door=[6.2, 2.7, 0.0, 1.0, 1.0, 1.2],
+    )
+    assert tracker.precise
+    state, slowest, fresh_scan = "following", 1.0, None
+    for i in range(2000):
+        r = sim.step()
+        fresh_scan = r.scan if r.scan is not None else fresh_scan
+        if i % 2:
+            continue
+        s = sim.state
+        cmd = tracker.step(s.x, s.y, s.theta, "1", s.v, s.w, None, True, 0.04, fresh_scan)
+        fresh_scan, state = None, cmd.state
+        if state != "following":
+            break
+        sim.command(cmd.v, cmd.w)
+        if s.x > 4.5:
+            slowest = min(slowest, s.v)
+    assert state == "arrived" and sim.state.x >= 6.2 + 1.2 - 0.05
+    assert sim.collisions == 0 and slowest > 0.15  # it never stopped on the way
+    seen = sim.door_clearance["door_ab"]
+    assert seen.clearance >= (1.0 - 0.65) / 2 - 0.03  # the opening's limit
+
+
+def test_a_smooth_pass_facing_away_from_the_door_falls_back() -> None:
+    cfg = load(None, [])
+    tracker = Tracker(cfg.controller, cfg.robot, SITE)
+    tracker.set_path(
+        "smooth",
+        np.array([[5.2, 2.7], [7.4, 2.7]]),
+        np.array([0.5, 0.0]),
+        precise=True,
+        door=[6.2, 2.7, 0.0, 1.0, 1.0, 1.2],
+    )
+    cmd = tracker.step(3.0, 2.7, 3.1, "1", 0.0, 0.0, None, True, 0.04, None)
+    assert cmd.state == "fallback" and cmd.v == 0.0
