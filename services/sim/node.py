@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
         try:
-            sim = Simulation(cfg, load_site(cfg.site))
+            sim = Simulation(cfg, load_site(cfg.sim.world_site or cfg.site))
         except (SiteError, ValueError) as exc:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None

@@ -27,6 +27,7 @@ SCENARIO_KEYS = {
     "expect",
     "expect_reason",
     "kind",
+    "world_site",
 }
 
 
@@ -45,8 +46,16 @@ class Scenario:
     kind: str = ""  # what the mission tests (a campaign's mission kind), free text
 
 
+def _resolved(scenario: Path, site: str) -> Path:
+    """A site path of the scenario, relative ones taken from its folder."""
+    p = Path(site)
+    return p if p.is_absolute() else (scenario.parent / p).resolve()
+
+
 def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
-    """Read a scenario; relative site paths are taken from the scenario's folder."""
+    """Read a scenario; relative site paths are taken from the scenario's folder.
+    ``world_site`` (optional): the site the simulator builds its world from, where the
+    world differs from the map the stack is given (``site``)."""
     path = Path(path)
     data = config_mod.read_yaml(path)
     unknown = sorted(set(data) - SCENARIO_KEYS)
@@ -60,14 +69,14 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     start = data["start"]
     if isinstance(start, dict) and "place" not in start:
         start = {**start, "place": ""}  # a pose given: it replaces the default start place
-    site = Path(data["site"])
-    if not site.is_absolute():
-        site = (path.parent / site).resolve()
+    site = _resolved(path, data["site"])
+    world = _resolved(path, data["world_site"]) if data.get("world_site") else None
     fleet = config_mod.merge(
         data.get("config") or {},
         {
             "site": str(site),
             "sim": {
+                **({"world_site": str(world)} if world else {}),
                 "start": start,
                 "seed": data.get("seed", 0),
                 "realtime_factor": 0.0,
@@ -111,7 +120,8 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
         re.compile(expect_reason)
     except re.error as exc:
         raise ConfigError(f"{path}: expect_reason: not a regular expression ({exc})") from None
-    load_site(site)  # a missing or malformed site fails here, in one line, not in 5 services
+    for one in (site, world) if world else (site,):
+        load_site(one)  # a missing or malformed site fails here, in one line, not in 5 services
     name = str(data.get("name", path.stem))
     return Scenario(
         name, cfg, goal, place, float(limit), path, expect, expect_reason, str(data.get("kind", ""))

@@ -127,3 +127,19 @@ def test_recorder_keeps_that_a_doorway_was_entered_once_it_was() -> None:
     r = Recorder("g1")  # a door only ever passed: no outline figure
     r.on_sim_status(SimStatus(1.0, 0, False, 0.3, 0.12, doors=[entered]))
     assert r.report("x", 1.0)["door_clearance"][0]["outline_clearance_m"] is None
+
+
+def test_a_world_site_apart_from_the_map_is_read_relative_to_the_scenario(tmp_path) -> None:
+    text = (
+        f"site: {ROOT / 'sites' / 'two_rooms'}\nworld_site: WORLD\n"
+        "start: {x: 2.0, y: 2.7, theta: 0.0, floor: '1'}\ngoal: {place: room_b}\n"
+    )
+    (tmp_path / "world").symlink_to(ROOT / "sites" / "two_rooms")
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(text.replace("WORLD", "world"))
+    sc = load_scenario(scenario)
+    assert sc.config.sim.world_site == str((tmp_path / "world").resolve())
+    assert load_scenario(ROOT / "scenarios" / "demo.yaml").config.sim.world_site == ""
+    scenario.write_text(text.replace("WORLD", "nowhere"))
+    with pytest.raises(Exception, match="nowhere"):
+        load_scenario(scenario)
