@@ -345,10 +345,11 @@ class ControllerConfig:
     dock_lateral_tolerance_m: float = field(default=0.015, metadata=check(_positive))
     dock_reverse_reach_m: float = field(default=1.0, metadata=check(_non_negative))
     # a smooth door pass (navigator.door_procedure "smooth"): the speed is cut where the
-    # Bézier's curvature asks more lateral acceleration than this; pure pursuit looks this
-    # far ahead along the curve and the door's centre line
+    # Bézier's curvature asks more lateral acceleration than this; the curve ends on the
+    # door's centre line this far before the approach line (aligned before the front
+    # nears the door or its open leaf), or this far ahead of the chair once it is there
     smooth_lateral_accel: float = field(default=0.3, metadata=check(_positive))
-    smooth_lookahead_m: float = field(default=0.4, metadata=check(_positive))
+    smooth_lookahead_m: float = field(default=0.5, metadata=check(_positive))
     # in the doorway (any of the chair within smooth_zone_m of the door plane) at most
     # smooth_gap_rate x the gap a side: the seed's 0.2 m/s at the paper's 0.80 m door and
     # 0.65 m chair (7.5 cm a side) is 2.67 /s, a 1.0 m door allows 0.47 m/s; a door of
@@ -400,7 +401,7 @@ class NavigatorConfig:
     # smooth: the leg before the door hands over this far before its end, at speed; the
     # door must be seen open (building and LiDAR) before the chair's front is
     # smooth_commit_m before the door plane, or the chair stops and does stop-turn-go
-    smooth_handover_m: float = field(default=1.0, metadata=check(_non_negative))
+    smooth_handover_m: float = field(default=1.5, metadata=check(_non_negative))
     smooth_commit_m: float = field(default=0.5, metadata=check(_non_negative))
     # while a mission holds a lift or a powered door it asked open, it asks again this
     # often (the building's sessions are leases, building.lift_session_lease_s and

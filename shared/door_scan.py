@@ -41,6 +41,13 @@ JAMB_M = 0.1  # returns this near a jamb (its corner, the reveal behind it) are 
 REVEAL_M = 0.02  # a reveal's returns lie this near its jamb's line through the wall
 STEP_M = 0.06  # returns of one wall face are closer together than this
 MAX_DEPTH_M = 0.5  # the thickest wall a reveal is looked for in
+LEAF_MIN_M = 0.3  # a hinged leaf standing open shows at least this much of its face
+LEAF_DEG = 15.0  # and stands within this of the wall's normal
+LEAF_REACH_M = 1.3  # its nearer end at most this far from the wall's line (the widest
+# leaf's tip: the part by the hinge may be hidden or seen too edge-on to make a stretch)
+LEAF_THICKNESS_M = 0.06  # returns this near its face along the wall are the leaf's
+LEAF_SIDE_M = 0.04  # a leaf's thickness, taken when only its outer face shows
+SHADOW_M = 0.15  # beams crossing the wall's line this far inside a jamb must pass free
 
 
 @dataclass(frozen=True)
@@ -169,10 +176,24 @@ def find_doorways(
     max_width_m: float = 1.6,
     band_m: float = BAND_M,
 ) -> list[Doorway]:
-    """Every doorway in one scan (N, 2 or 3 points, sensor frame), nearest first."""
+    """Every doorway in one scan (N, 2 or 3 points, sensor frame), nearest first: between
+    two stretches of one wall, or between a stretch of wall and the face of a hinged leaf
+    standing open towards the sensor (the wall on the leaf's far side hidden behind it)."""
     scan = planar_scan(points, band_m)
     stretches = segment(scan)
     found: list[Doorway] = []
+    for s, lo, hi in _gaps(stretches):
+        door = _doorway(scan, stretches, s, lo, hi, min_width_m, max_width_m)
+        if door is not None:
+            found.append(door)
+    found.sort(key=lambda w: float(np.linalg.norm(w.centre)))
+    return _distinct(found)
+
+
+def _gaps(stretches: list[Stretch]) -> list[tuple[Stretch, float, float]]:
+    """Candidate gaps (the wall's stretch, the gap's ends along it from its end ``a``):
+    two stretches on one line, and a stretch of wall beside a leaf's face."""
+    gaps = []
     cos_par = math.cos(math.radians(PARALLEL_DEG))
     for i, first in enumerate(stretches):
         for second in stretches[i + 1 :]:
@@ -192,45 +213,134 @@ def find_doorways(
                 continue  # overlapping: one wall, no gap
             if abs(float(np.dot((t.a, t.b)[k] - s.a, s.normal))) > ON_LINE_M:
                 continue
-            width = hi - lo
-            if not min_width_m <= width <= max_width_m:
-                continue
-            along = (scan - s.a) @ d
-            off = (scan - s.a) @ s.normal
-            on_line = np.abs(off) < ON_LINE_M
-            # the jambs: follow the wall's returns from each stretch's end towards the
-            # other while they are close together (a fit ends short of a corner where the
-            # reveal bends away); a closed leaf flush with the wall closes the gap
-            wall = np.sort(along[on_line & (along > lo - JAMB_M) & (along < hi + JAMB_M)])
-            lo, hi = _follow(wall, lo, +1), _follow(wall, hi, -1)
-            width = hi - lo
-            if not min_width_m <= width <= max_width_m:
-                continue
-            if np.any(on_line & (along > lo + REVEAL_M) & (along < hi - REVEAL_M)):
-                continue  # something on the wall's line in the gap: a leaf, a post
-            beyond = off < -ON_LINE_M
-            if not np.any(beyond):
-                continue
-            # where the beams to returns beyond the wall cross its line (the sensor is at
-            # the origin): some must cross in the gap, else it is a gap in the returns
-            c = float(np.dot(s.normal, s.a))
-            cross = scan[beyond] * (c / (scan[beyond] @ s.normal))[:, None]
-            through = (cross - s.a) @ d
-            if not np.any((through > lo + REVEAL_M) & (through < hi - REVEAL_M)):
-                continue
-            # open: most beams through the gap's middle half reach past a wall's thickness
-            # (a closed leaf stands in the frame, a few cm behind the face; an open hinged
-            # one stands at a jamb)
-            middle = (through > lo + width / 4) & (through < hi - width / 4)
-            is_open = (
-                bool(np.mean(-off[beyond][middle] > MAX_DEPTH_M) >= 0.5) if middle.any() else True
-            )
-            left, right = s.a + lo * d, s.a + hi * d
-            centre = (left + right) / 2
-            depth = _reveal_depth(along, off, lo, hi)
-            found.append(Doorway(left, right, centre, width, d.copy(), -s.normal, depth, is_open))
-    found.sort(key=lambda w: float(np.linalg.norm(w.centre)))
-    return _distinct(found)
+            gaps.append((s, lo, hi))
+    for s in stretches:  # a leaf's face as the far jamb
+        ends = sorted(float(np.dot(p - s.a, s.direction)) for p in (s.a, s.b))
+        for at in _leaf_faces(stretches, s):
+            if at > ends[1]:
+                gaps.append((s, ends[1], at))
+            elif at < ends[0]:
+                gaps.append((s, at, ends[0]))
+    return gaps
+
+
+def _doorway(
+    scan: np.ndarray,
+    stretches: list[Stretch],
+    s: Stretch,
+    lo: float,
+    hi: float,
+    min_width_m: float,
+    max_width_m: float,
+) -> Doorway | None:
+    """The doorway in wall ``s`` between ``lo`` and ``hi`` (along it from its end ``a``),
+    if the returns show one: jambs where the wall's returns end (or a leaf's face), no
+    return on the wall's line between them, beams through the gap, no jamb at the edge of
+    a shadow (the wall may go on behind what casts it)."""
+    if not min_width_m <= hi - lo <= max_width_m:
+        return None
+    d = s.direction
+    along = (scan - s.a) @ d
+    off = (scan - s.a) @ s.normal
+    on_line = np.abs(off) < ON_LINE_M
+    # the jambs: follow the wall's returns from each end towards the other while they are
+    # close together (a fit ends short of a corner where the reveal bends away); a closed
+    # leaf flush with the wall closes the gap
+    wall = np.sort(along[on_line & (along > lo - JAMB_M) & (along < hi + JAMB_M)])
+    lo, hi = _follow(wall, lo, +1), _follow(wall, hi, -1)
+    # a hinged leaf swung open towards the sensor stands across the wall's line at its
+    # hinge jamb and hides the wall behind it: its face is that side's jamb
+    leaf = _leaf_face(stretches, s, lo, hi)
+    near_leaf = np.zeros(len(scan), dtype=bool)
+    if leaf is not None:
+        near_leaf = np.abs(along - leaf) < LEAF_THICKNESS_M
+        sensor = float(np.dot(-s.a, d))  # the sensor's place along the wall
+        if leaf - lo < hi - leaf:  # seen from the hinge's side, the face is the outer one
+            lo = leaf = leaf + (LEAF_SIDE_M if sensor < leaf else 0.0)
+        else:
+            hi = leaf = leaf - (LEAF_SIDE_M if sensor > leaf else 0.0)
+    width = hi - lo
+    if not min_width_m <= width <= max_width_m:
+        return None
+    if np.any(on_line & ~near_leaf & (along > lo + REVEAL_M) & (along < hi - REVEAL_M)):
+        return None  # something on the wall's line in the gap: a leaf, a post
+    c = float(np.dot(s.normal, s.a))
+    ends = [(e, side) for e, side in ((lo, +1), (hi, -1)) if leaf is None or e != leaf]
+    if any(_hidden(scan, s, c, e, side) for e, side in ends):
+        return None  # a jamb at the edge of a shadow: the wall may go on behind it
+    beyond = off < -ON_LINE_M
+    if not np.any(beyond):
+        return None
+    # where the beams to returns beyond the wall cross its line (the sensor is at the
+    # origin): some must cross in the gap, else it is a gap in the returns
+    cross = scan[beyond] * (c / (scan[beyond] @ s.normal))[:, None]
+    through = (cross - s.a) @ d
+    if not np.any((through > lo + REVEAL_M) & (through < hi - REVEAL_M)):
+        return None
+    # open: most beams through the gap's middle half reach past a wall's thickness (a
+    # closed leaf stands in the frame, a few cm behind the face; an open hinged one
+    # stands at a jamb)
+    middle = (through > lo + width / 4) & (through < hi - width / 4)
+    is_open = bool(np.mean(-off[beyond][middle] > MAX_DEPTH_M) >= 0.5) if middle.any() else True
+    left, right = s.a + lo * d, s.a + hi * d
+    depth = _reveal_depth(along, off, lo, hi)
+    return Doorway(left, right, (left + right) / 2, width, d.copy(), -s.normal, depth, is_open)
+
+
+def _leaf_faces(stretches: list[Stretch], wall: Stretch) -> list[float]:
+    """Along ``wall`` (from its end ``a``), the faces of every leaf standing across its
+    line: stretches at least ``LEAF_MIN_M`` long within ``LEAF_DEG`` of the wall's normal,
+    on the sensor's side, reaching the wall's line (the hinge; a reveal in line with the
+    face may carry it on through the wall)."""
+    d, n = wall.direction, wall.normal
+    faces = []
+    for u in stretches:
+        if u is wall or u.length < LEAF_MIN_M:
+            continue
+        if abs(float(np.dot(u.direction, n))) < math.cos(math.radians(LEAF_DEG)):
+            continue
+        offs = [float(np.dot(p - wall.a, n)) for p in (u.a, u.b)]
+        if min(offs) > ON_LINE_M or max(offs) < LEAF_MIN_M:
+            continue
+        faces.append(float(np.dot((u.a + u.b) / 2 - wall.a, d)))
+    return faces
+
+
+def _leaf_face(stretches: list[Stretch], wall: Stretch, lo: float, hi: float) -> float | None:
+    """Where along ``wall`` (from its end ``a``) the face of a leaf standing across it in
+    the gap [lo, hi] is: a stretch at least ``LEAF_MIN_M`` long, within ``LEAF_DEG`` of the
+    wall's normal, on the sensor's side, its nearer end within ``LEAF_REACH_M`` of the
+    wall's line (None: no leaf)."""
+    d, n = wall.direction, wall.normal
+    best = None
+    for u in stretches:
+        if u is wall or u.length < LEAF_MIN_M:
+            continue
+        if abs(float(np.dot(u.direction, n))) < math.cos(math.radians(LEAF_DEG)):
+            continue
+        offs = [float(np.dot(p - wall.a, n)) for p in (u.a, u.b)]
+        if min(offs) > LEAF_REACH_M or max(offs) < LEAF_MIN_M:
+            continue  # not from the wall's line out towards the sensor
+        at = float(np.dot((u.a + u.b) / 2 - wall.a, d))
+        if lo - JAMB_M < at < hi + JAMB_M and (best is None or u.length > best[1]):
+            best = (at, u.length)
+    return None if best is None else best[0]
+
+
+def _hidden(scan: np.ndarray, wall: Stretch, c: float, end: float, inward: int) -> bool:
+    """True if beams that cross ``wall``'s line just inside the gap from ``end`` (towards
+    ``inward``) end on something nearer than the wall: the end is the edge of a shadow."""
+    off = (scan - wall.a) @ wall.normal
+    front = scan[off > ON_LINE_M]
+    if len(front) == 0:
+        return False
+    dots = front @ wall.normal
+    scale = np.divide(c, dots, out=np.zeros_like(dots), where=np.abs(dots) > 1e-9)
+    ok = scale > 1.0  # the beam goes on past the return to the wall's line
+    cross = front[ok] * scale[ok][:, None]
+    at = (cross - wall.a) @ wall.direction
+    inside = (at - end) * inward
+    return bool(np.any((inside > REVEAL_M) & (inside < SHADOW_M)))
 
 
 def _follow(wall: np.ndarray, end: float, step: int) -> float:

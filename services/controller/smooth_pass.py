@@ -2,10 +2,13 @@
 
 Every cycle the doorways in the latest scan are fused into the door estimate
 (``shared.door_scan``); the estimate nearest the mapped door decides. The goal is on the
-door's centre line ``lead_m`` before its plane, facing through it; the chair follows the
+door's centre line ``lookahead_m`` before the approach line (``lead_m`` before its plane),
+facing through it; the chair follows the
 smoothest curve onto it (``door_bezier``), re-planned from the current pose and the latest
-estimate each cycle, then the centre line itself through the doorway until its reference
-point is ``through_m`` past the plane. Steering is pure pursuit on that path; the speed is
+estimate each cycle; on the line, the goal moves ``lookahead_m`` ahead along it, through
+the doorway until the reference point is ``through_m`` past the plane. The chair turns at
+its speed times the curve's curvature where it stands (the curve starts along its
+heading: no lookahead point to cut the corner to, as pure pursuit's was); the speed is
 the path's, less where the curve's curvature asks more than the lateral acceleration
 allows, and in the doorway as much as the gap a side allows (``PassSettings``; braking
 into it). Facing away from the door (no curve) it asks for stop-turn-go instead. Pure: no
@@ -37,7 +40,7 @@ class PassSettings:
     lateral_accel: float = 0.3
     lead_m: float = 1.5  # the curve ends this far before the door plane, on the line
     through_m: float = 1.2  # done when the reference point is this far past the plane
-    lookahead_m: float = 0.4
+    lookahead_m: float = 0.5
     join_m: float = 0.5  # the scan's doorway is the mapped one within this distance
     door_width: float = 0.0  # the mapped width (0: unknown: the doorway speed applies)
     chair_width: float = 0.65
@@ -92,11 +95,15 @@ class SmoothPass:
 
     def _doorway_limit(self, past: float) -> float:
         """The speed limit where the reference point is ``past`` the door plane: the
-        doorway speed while the footprint is within ``zone_m`` of the plane, braking into
-        it before, the door speed once the rear is out of it."""
+        doorway speed while the footprint is within ``zone_m`` of the plane (before it,
+        from the approach line's start on), braking into it before, the door speed once
+        the rear is out of it."""
         s = self.settings
         v_door = self.doorway_speed()
-        to_zone = -(past + s.front_m) - s.zone_m  # the front's way to the zone
+        # the approach line's start (lead_m) is where the front stands clear of all the
+        # door sweeps (a hinged leaf opening towards the chair): from there it is the door's
+        before = max(s.zone_m, s.lead_m - s.front_m)
+        to_zone = -(past + s.front_m) - before  # the front's way to the zone
         if to_zone > 0:
             return math.sqrt(v_door**2 + 2 * s.decel * to_zone)
         if past - s.rear_m > s.zone_m:
@@ -120,39 +127,22 @@ class SmoothPass:
         if past >= s.through_m:
             return 0.0, 0.0, THROUGH
         heading = math.atan2(self.normal[1], self.normal[0])
-        goal = self.centre - s.lead_m * self.normal
-        line_end = self.centre + (s.through_m + s.lookahead_m) * self.normal
-        if float(np.dot(p - goal, self.normal)) >= -0.05:  # on the line: straight through
-            path = np.array([goal, line_end])
-            limit = s.door_speed
-        else:
-            curve = door_curve(pose, (float(goal[0]), float(goal[1]), heading))
-            if curve is None:
-                return 0.0, 0.0, FALLBACK
-            path = np.vstack([curve.points, line_end])
-            near = int(np.argmin(np.hypot(*(curve.points - p).T)))
-            limit = float(curve.speed_limit(s.door_speed, s.lateral_accel)[near])
-        limit = min(limit, self._doorway_limit(past))
-        target = _ahead(path, p, s.lookahead_m)
-        dx, dy = target - p
-        c, sn = math.cos(pose[2]), math.sin(pose[2])
-        lateral = -sn * dx + c * dy
-        dist2 = max(dx * dx + dy * dy, 1e-6)
-        v = limit
-        return v, 2.0 * v * lateral / dist2, RUNNING
-
-
-def _ahead(path: np.ndarray, p: np.ndarray, lookahead: float) -> np.ndarray:
-    """The point ``lookahead`` along ``path`` from the path point nearest ``p``."""
-    seg = np.diff(path, axis=0)
-    length = np.hypot(*seg.T)
-    cum = np.concatenate([[0.0], np.cumsum(length)])
-    t = np.clip(np.einsum("ij,ij->i", p - path[:-1], seg) / np.maximum(length**2, 1e-12), 0, 1)
-    d = np.hypot(*(path[:-1] + t[:, None] * seg - p).T)
-    k = int(np.argmin(d))
-    at = cum[k] + t[k] * length[k] + lookahead
-    i = int(np.searchsorted(cum, at, side="right")) - 1
-    if i >= len(seg):
-        return path[-1]
-    f = (at - cum[i]) / max(length[i], 1e-9)
-    return path[i] + f * seg[i]
+        # the goal: on the centre line lookahead_m before the approach line's start
+        # (lead_m before the plane: from there the front is in the door's zone, beside a
+        # leaf swung open towards it), the chair aligned by then; once the chair is within
+        # lookahead_m of it, lookahead_m ahead of the chair along the line (the curve keeps
+        # re-planning onto the line, as the paper's does, and never ends under the chair)
+        along = min(
+            max(-(s.lead_m + s.lookahead_m), past + s.lookahead_m), s.through_m + s.lookahead_m
+        )
+        goal = self.centre + along * self.normal
+        curve = door_curve(pose, (float(goal[0]), float(goal[1]), heading))
+        if curve is None:
+            return 0.0, 0.0, FALLBACK
+        step = np.hypot(*np.diff(curve.points, axis=0).T)
+        ahead = np.concatenate([[0.0], np.cumsum(step)]) <= s.lookahead_m
+        limit = float(curve.speed_limit(s.door_speed, s.lateral_accel)[ahead].min())
+        v = min(limit, self._doorway_limit(past))
+        # steer with the curve's own curvature where the chair stands: the curve starts
+        # along the chair's heading, so following it is turning at v x its curvature
+        return v, v * float(curve.curvature[0]), RUNNING

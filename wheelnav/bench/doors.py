@@ -11,9 +11,10 @@ clearance in the opening, and the time from the start until the body centre is 1
 the door. A table row per width and door kind gives pass rate, collisions, offsets (RMS
 and max), heading RMS, least clearance against the opening's limit and the median time.
 
-The door procedure measured is whatever the fleet config selects (today stop-turn-go);
-the mapped door is where the door is (the perturbed map of the issue comes with maps that
-differ from the world).
+Each start is run with each door procedure (``--procedures``: smooth and stop-turn-go,
+side by side; a smooth run that shows a correct, turn or verify phase fell back to
+stop-turn-go and is counted so). ``--map-off-m``: the stack's map (and its door entry)
+places the door up to that far along the wall from where the simulator's world has it.
 """
 
 from __future__ import annotations
@@ -158,62 +159,111 @@ def summarise(runs: list[dict]) -> dict[str, Any]:
             r["clearance_m"] is not None and r["clearance_m"] < r["required_m"] for r in runs
         ),
         "median_time_s": round(statistics.median(times), 2) if times else None,
+        "fell_back": sum(bool(r.get("fell_back")) for r in runs),
     }
 
 
+PROCEDURES = ("smooth", "stop_turn_go")
+SLOW_PHASES = ("correct", "turn", "verify")  # a smooth pass that shows these fell back
+
+
+def _scenario(
+    folder: Path,
+    name: str,
+    seed: int,
+    start: tuple[float, float, float],
+    procedure: str,
+    world: bool,
+) -> Path:
+    """The mission of one run: to the place past the door with ``procedure``; ``world``:
+    the simulator builds the world site (the door where it is), the stack gets the map."""
+    x, y, theta = start
+    data = {
+        "name": name,
+        "site": "map/site.yaml",
+        "seed": seed,
+        "time_limit_s": 120.0,
+        "start": {"x": x, "y": y, "theta": theta, "floor": "1"},
+        "goal": {"place": "beyond"},
+        "config": {"navigator": {"door_procedure": procedure}},
+    }
+    if world:
+        data["world_site"] = "world/site.yaml"
+    path = folder / f"{procedure}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
 def run_bench(
-    starts: int, seed: int, widths: tuple[float, ...], kinds: tuple[str, ...], out: TextIO
+    starts: int,
+    seed: int,
+    widths: tuple[float, ...],
+    kinds: tuple[str, ...],
+    out: TextIO,
+    procedures: tuple[str, ...] = PROCEDURES,
+    map_off_m: float = 0.0,
+    keep: Path | None = None,
 ) -> dict[str, Any]:
-    """Run every start for every width and kind; progress on ``out``; the figures."""
+    """Run every start for every width, kind and procedure (each start with each
+    procedure); the mapped door ``map_off_m`` at most along its wall from where it is;
+    progress on ``out``, with the command that replays a run that failed or fell back
+    (its scenario kept under ``keep``, else in a temporary folder that goes); the figures."""
     from wheelnav.mission.run import MissionRun  # the fleet: only when running
     from wheelnav.mission.scenario import load_scenario
 
     robot = RobotConfig()
     rng = np.random.default_rng(seed)
     rows: dict[str, Any] = {}
-    with tempfile.TemporaryDirectory(prefix="wheelnav-doors-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="wheelnav-doors-") as temporary:
+        tmp = keep or temporary
         for width in widths:
             for kind in kinds:
-                runs = []
+                runs: dict[str, list[dict]] = {proc: [] for proc in procedures}
                 for i in range(starts):
                     door_y = float(rng.uniform(2.5, ROOM[1] - 2.5))
                     swing = str(rng.choice(["left", "right"]))  # left: into the approach room
+                    off = float(rng.uniform(-map_off_m, map_off_m)) if map_off_m > 0 else 0.0
                     folder = Path(tmp) / f"{width:.2f}_{kind}_{i}"
-                    door_site(folder, width, kind, door_y, swing)
-                    x, y, theta = draw_start(rng, robot)
-                    scenario = folder / "scenario.yaml"
-                    scenario.write_text(
-                        yaml.safe_dump(
-                            {
-                                "name": f"door_{width:.2f}_{kind}_{i}",
-                                "site": "site.yaml",
-                                "seed": seed + i,
-                                "time_limit_s": 120.0,
-                                "start": {"x": x, "y": y, "theta": theta, "floor": "1"},
-                                "goal": {"place": "beyond"},
-                            }
+                    door_site(folder / "map", width, kind, door_y + off, swing)
+                    if off:
+                        door_site(folder / "world", width, kind, door_y, swing)
+                    start = draw_start(rng, robot)
+                    for proc in procedures:
+                        name = f"door_{width:.2f}_{kind}_{i}_{proc}"
+                        scenario = _scenario(folder, name, seed + i, start, proc, bool(off))
+                        report = MissionRun(load_scenario(scenario), quiet=True).run()
+                        row = measure(report, door_y, width, robot)
+                        phases = {p["name"] for p in report.get("phases", [])}
+                        row.update(
+                            start=[round(v, 3) for v in start],
+                            swing=swing,
+                            map_off_m=round(off, 3),
+                            fell_back=proc == "smooth" and bool(phases & set(SLOW_PHASES)),
                         )
-                    )
-                    report = MissionRun(load_scenario(scenario), quiet=True).run()
-                    row = measure(report, door_y, width, robot)
-                    row.update(start=[round(x, 3), round(y, 3), round(theta, 3)], swing=swing)
-                    runs.append(row)
-                    print(
-                        f"{width:.2f} m {kind} {i + 1}/{starts}: "
-                        + ("passed" if row["passed"] else f"FAILED ({row['reason']})")
-                        + f", lateral {row['lateral_m']} m, heading {row['heading_deg']} deg",
-                        file=out,
-                        flush=True,
-                    )
-                rows[f"{width:.2f} {kind}"] = {"summary": summarise(runs), "runs": runs}
-    return {"seed": seed, "starts": starts, "procedure": "as configured", "rows": rows}
+                        runs[proc].append(row)
+                        print(
+                            f"{width:.2f} m {kind} {proc} {i + 1}/{starts}: "
+                            + ("passed" if row["passed"] else f"FAILED ({row['reason']})")
+                            + f", lateral {row['lateral_m']} m, heading {row['heading_deg']} deg"
+                            + (", fell back" if row["fell_back"] else ""),
+                            file=out,
+                            flush=True,
+                        )
+                        if keep and (row["fell_back"] or not row["passed"]):
+                            print(f"  replay: wheelnav mission {scenario}", file=out)
+                for proc in procedures:
+                    rows[f"{width:.2f} {kind} {proc}"] = {
+                        "summary": summarise(runs[proc]),
+                        "runs": runs[proc],
+                    }
+    return {"seed": seed, "starts": starts, "map_off_m": map_off_m, "rows": rows}
 
 
 def format_table(result: dict[str, Any]) -> str:
     """The rows side by side, one line per width and kind."""
     head = (
-        f"{'door':14s} {'passed':>8s} {'coll':>5s} {'lat rms':>8s} {'lat max':>8s} "
-        f"{'head rms':>9s} {'min clr':>8s} {'short':>6s} {'t med':>7s}"
+        f"{'door':27s} {'passed':>8s} {'coll':>5s} {'lat rms':>8s} {'lat max':>8s} "
+        f"{'head rms':>9s} {'min clr':>8s} {'short':>6s} {'t med':>7s} {'fell back':>9s}"
     )
     lines = [head]
 
@@ -223,10 +273,11 @@ def format_table(result: dict[str, Any]) -> str:
     for name, row in result["rows"].items():
         s = row["summary"]
         lines.append(
-            f"{name:14s} {s['passed']:>4d}/{s['runs']:<3d} {s['collisions']:>5d} "
+            f"{name:27s} {s['passed']:>4d}/{s['runs']:<3d} {s['collisions']:>5d} "
             f"{f(s['lateral_rms_m'], '8.3f')} {f(s['lateral_max_m'], '8.3f')} "
             f"{f(s['heading_rms_deg'], '9.2f')} {f(s['min_clearance_m'], '8.3f')} "
-            f"{s['clearance_short']:>6d} {f(s['median_time_s'], '7.1f')}"
+            f"{s['clearance_short']:>6d} {f(s['median_time_s'], '7.1f')} "
+            f"{s.get('fell_back', 0):>9d}"
         )
     return "\n".join(lines)
 
@@ -237,11 +288,36 @@ def main(argv: list[str] | None = None, out: TextIO = sys.stdout) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--widths", type=float, nargs="+", default=list(WIDTHS))
     p.add_argument("--kinds", nargs="+", choices=KINDS, default=list(KINDS))
+    p.add_argument(
+        "--procedures",
+        nargs="+",
+        choices=PROCEDURES,
+        default=list(PROCEDURES),
+        help="door procedures, each run from the same starts (navigator.door_procedure)",
+    )
+    p.add_argument(
+        "--map-off-m",
+        type=float,
+        default=0.0,
+        help="the mapped door at most this far along its wall from the real one (0.1: the issue)",
+    )
     p.add_argument("--json", type=Path, help="write the runs and the table's figures here")
+    p.add_argument("--keep", type=Path, help="keep every run's site and scenario in this folder")
     args = p.parse_args(argv)
     if args.starts < 1:
         p.error("--starts: must be at least 1")
-    result = run_bench(args.starts, args.seed, tuple(args.widths), tuple(args.kinds), sys.stderr)
+    if not 0.0 <= args.map_off_m <= 1.0:
+        p.error("--map-off-m: must be between 0 and 1 m")
+    result = run_bench(
+        args.starts,
+        args.seed,
+        tuple(args.widths),
+        tuple(args.kinds),
+        sys.stderr,
+        tuple(args.procedures),
+        args.map_off_m,
+        args.keep.resolve() if args.keep else None,
+    )
     print(format_table(result), file=out)
     if args.json:
         args.json.write_text(json.dumps(result, indent=1))
