@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 
 from services.controller.node import scan_to_world
+from services.controller.safety import guard
 from services.controller.tracking import Tracker
 from shared.config import load
 from shared.messages import PointCloud, Pose2D, PoseEstimate
@@ -107,3 +111,49 @@ def test_a_smooth_pass_facing_away_from_the_door_falls_back() -> None:
     )
     cmd = tracker.step(3.0, 2.7, 3.1, "1", 0.0, 0.0, None, True, 0.04, None)
     assert cmd.state == "fallback" and cmd.v == 0.0
+
+
+@pytest.mark.parametrize("pinch", [0.045, 0.048, 0.052])
+def test_a_turn_on_the_spot_beside_a_wall_keeps_5_cm_from_it(pinch: float) -> None:
+    # camp23 b2.m00 and b8.m03: docking turned on the spot beside a wall and a rear corner
+    # passed 0.0465 m from it (the limit away from doors is 0.05). Turning left by 90 deg
+    # at (3.0, y0) facing +x, the rear right corner (0.478 m from the pose point) sweeps
+    # straight down at y0 - 0.478: ``pinch`` from room A's south wall (face at y = 0.2)
+    y0 = 0.2 + 0.478 + pinch
+    cfg = load(
+        None, ["sim.start.place=", "sim.start.x=3.0", f"sim.start.y={y0}", "sim.start.theta=0"]
+    )
+    sim = Simulation(cfg, SITE)
+    tracker = Tracker(cfg.controller, cfg.robot, SITE)
+    tracker.set_path("dock", np.array([[3.0, y0]]), np.array([0.15]), dock_heading=math.pi / 2)
+    scan, state = None, "following"
+    for i in range(40 * 50):
+        r = sim.step()
+        scan = r.scan if r.scan is not None else scan
+        if i % 2:
+            continue
+        s = sim.state
+        pose = PoseEstimate(r.stamp, Pose2D(s.x, s.y, s.theta, "1"), np.eye(3))
+        obstacles = (
+            scan_to_world(PointCloud(0.0, "l", scan), pose, 0.5, 4.0) if scan is not None else None
+        )
+        cmd = tracker.step(s.x, s.y, s.theta, "1", s.v, s.w, obstacles, True, 0.04)
+        state = cmd.state
+        if state == "arrived":
+            break
+        v, w, _ = guard(
+            cmd.v,
+            cmd.w,
+            state,
+            r.stamp,
+            True,
+            r.stamp,
+            scan,
+            cfg.robot,
+            cfg.controller,
+            0.5,
+            tracker.precise,
+        )  # as the node does
+        sim.command(v, w)
+    assert state == "arrived"
+    assert sim.min_clearance >= 0.05, sim.min_clearance
