@@ -148,6 +148,7 @@ class Docker:
         self._target: tuple[float, float, float] | None = None  # the goal behind a manoeuvre
         self._via: list[tuple[float, float, float]] = []
         self._keep_out = np.zeros((0, 2))  # points along segments a manoeuvre counts as walls
+        self.plan_margin: float | None = None  # the margin of the manoeuvre under way
         self._planned = False
         self.plan_note = ""  # what the last manoeuvre search found, for the node's log
         self._cramped = False  # a turn the short way would sweep into a point
@@ -171,6 +172,7 @@ class Docker:
         a manoeuvre counts the ``keep_out`` segments (N, 4: x1, y1, x2, y2) as walls."""
         self._target, self._via, self._planned = (x, y, heading), [], False
         self._keep_out = _segment_points(keep_out)
+        self.plan_margin: float | None = None
         self._still_s, self._still_at, self._cramped = 0.0, None, False
         self._sidesteps = 0
         self._aim(
@@ -192,6 +194,15 @@ class Docker:
     def clear(self) -> None:
         self.goal = None
         self._target, self._via = None, []
+        self.plan_margin = None
+
+    def turn_margin(self, default_m: float, manoeuvre_m: float) -> float:
+        """The margin for the safety check of a turn on the spot: ``manoeuvre_m`` while a
+        manoeuvre is under way (planned for a tight room, its poses reached within their
+        tolerance: the controller's precise margin), else ``default_m``."""
+        if self.plan_margin is None or not self.active:
+            return default_m
+        return min(default_m, manoeuvre_m)
 
     def _stuck(self, x: float, y: float, theta: float, period_s: float) -> bool:
         """True once the pose has not moved for ``STUCK_S`` while the goal is not reached
@@ -249,6 +260,7 @@ class Docker:
                 f"{len(pts)} points show"
             )
             return
+        self.plan_margin = margin
         self._via = [p for p in poses[:-1] if math.hypot(p[0] - x, p[1] - y) > 0 or p[2] != theta]
         self.plan_note = (
             f"manoeuvre from ({x:.2f}, {y:.2f}, {math.degrees(theta):.0f} deg): "

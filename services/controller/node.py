@@ -162,6 +162,7 @@ def main(argv: list[str] | None = None) -> None:
                     cc,
                     cfg.localisation.scan_band_m,
                     tracker.precise,
+                    tracker.turn_margin(),
                 )
                 status = FollowStatus(
                     clock.stamp,

@@ -5,20 +5,23 @@ pose is stale or lost, when no scan has arrived for ``scan_timeout_s``, or when 
 point lies in the stop zone: the strip in front of the footprint (behind it when
 reversing), as wide as the chair plus ``robot.side_margin_m`` each side (in a precise pass
 or docking ``controller.precise_side_margin_m``: beside an 0.80 m door an open leaf leaves
-the chair 3-5 cm a side, and the wide strip caught it on every tick; the turn check below
-keeps the same margin, which a docking manoeuvre is planned with). Its length grows
+the chair 3-5 cm a side, and the wide strip caught it on every tick; the arc check below
+keeps the same margin). Its length grows
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
 proportion below, never under ``stop_min_distance_m`` nor under the braking distance plus
 that; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
 door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
 the footprint turned as far as the chair turns in ``turn_check_s`` (at most
-``turn_check_deg``) must not come within the side margin of a point, nor nearer to one
-already that near (a corner swinging on into a wall); a slow turn checked a full 15
-degrees ahead held the chair beside an open leaf it was creeping away from. Faster, the
-footprint along the arc it is driving, over the stop zone's length, must keep the same
-distance: turning at speed, a front corner swings into a wall beside the straight strip
-(campaign b7.m03 stopped 0.9 cm from one). Pure: points come in the robot frame.
+``turn_check_deg``) must not come within ``robot.side_margin_m`` of a point (docking
+too: a turn through a 4.5 cm pinch beside a wall passed the narrow margin; held at the
+wide one, the docker plans a manoeuvre out), or while a docking manoeuvre planned for a
+tight room is under way, within ``controller.precise_side_margin_m`` (``turn_margin_m``),
+nor nearer to one already that near (a corner swinging on into a wall); a slow turn
+checked a full 15 degrees ahead held the chair beside an open leaf it was creeping away
+from. Faster, the footprint along the arc it is driving, over the stop zone's length,
+must keep the same distance: turning at speed, a front corner swings into a wall beside
+the straight strip (campaign b7.m03 stopped 0.9 cm from one). Pure: points come in the robot frame.
 """
 
 from __future__ import annotations
@@ -121,9 +124,12 @@ def guard(
     cfg: ControllerConfig,
     band_m: float,
     precise: bool = False,
+    turn_margin_m: float | None = None,
 ) -> tuple[float, float, str]:
     """(v, w, state) after the safety checks; state names the reason when it stops.
-    ``precise``: a precise pass or docking, whose margins are narrower (see the module doc)."""
+    ``precise``: a precise pass or docking, whose margins are narrower (see the module doc);
+    ``turn_margin_m``: the margin of a turn on the spot (a docking manoeuvre's, planned
+    narrower in a tight room), else ``robot.side_margin_m``."""
     if not pose_ok:
         return 0.0, 0.0, "stale_pose" if state not in ("arrived", "idle") else state
     if state in ("arrived", "idle"):
@@ -139,6 +145,7 @@ def guard(
     if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin):
         return 0.0, 0.0, "obstacle"
     angle = min(np.radians(cfg.turn_check_deg), abs(w) * cfg.turn_check_s)
-    if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, margin):
+    turn_margin = robot.side_margin_m if turn_margin_m is None else turn_margin_m
+    if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, turn_margin):
         return 0.0, 0.0, "obstacle"
     return v, w, state

@@ -113,6 +113,10 @@ class Tracker:
         """True while following a precise pass or docking (not a leg)."""
         return self.docker.active or self._precise
 
+    def turn_margin(self) -> float:
+        """The margin the safety check of a turn on the spot keeps now (see the docker)."""
+        return self.docker.turn_margin(self.robot.side_margin_m, self.cfg.precise_side_margin_m)
+
     def set_path(
         self,
         path_id: str,

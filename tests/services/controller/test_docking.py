@@ -217,7 +217,8 @@ def dock_in_series_room(start: tuple[float, float, float], goal: tuple[float, fl
         local = np.column_stack(
             (dx * math.cos(th) + dy * math.sin(th), -dx * math.sin(th) + dy * math.cos(th), 0 * dx)
         )
-        cv, cw, _ = guard(cmd.v, cmd.w, cmd.state, t, True, t, local, robot, cfg, 1.0, True)
+        margin = docker.turn_margin(robot.side_margin_m, cfg.precise_side_margin_m)  # as the node
+        cv, cw, _ = guard(cmd.v, cmd.w, cmd.state, t, True, t, local, robot, cfg, 1.0, True, margin)
         v += (cv - v) * dt / LAG_S
         w += (cw - w) * dt / LAG_S
         x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt

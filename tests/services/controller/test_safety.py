@@ -124,14 +124,18 @@ def test_a_docking_turn_is_checked_with_the_margin_the_manoeuvre_was_planned_wit
     docking manoeuvre, planned with a margin down to 2.5 cm, turned the chair's rear corner
     past an open leaf; the turn check held it at 5 cm ('not converging: stopped 0.015 m,
     31 deg off'), three times, until the mission gave up. In a precise pass or docking the
-    turn check keeps ``controller.precise_side_margin_m``, as the stop strip does."""
+    turn check keeps the margin the manoeuvre under way was planned with (``turn_margin_m``);
+    a docking turn that is no manoeuvre keeps ``robot.side_margin_m`` (camp23 b2.m00: a turn
+    at the goal point passed 4.5 cm from a wall at the narrow margin)."""
     fp = ROBOT.footprint
     leaf = pts((-fp.rear + 0.02, fp.width / 2 + 0.06))  # beside the rear-left corner
     ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
     assert guard(0.0, -0.5, "following", scan_points=leaf, **ok)[2] == "obstacle"
-    assert guard(0.0, -0.5, "following", scan_points=leaf, precise=True, **ok)[2] == "following"
+    assert guard(0.0, -0.5, "following", scan_points=leaf, precise=True, **ok)[2] == "obstacle"
+    planned = dict(precise=True, turn_margin_m=0.025, **ok)
+    assert guard(0.0, -0.5, "following", scan_points=leaf, **planned)[2] == "following"
     touching = pts((-fp.rear + 0.02, fp.width / 2 + 0.04))
-    assert guard(0.0, -0.5, "following", scan_points=touching, precise=True, **ok)[2] == "obstacle"
+    assert guard(0.0, -0.5, "following", scan_points=touching, **planned)[2] == "obstacle"
 
 
 def test_a_turn_at_speed_stops_before_the_corner_sweeps_into_a_wall_beside_the_strip() -> None:

@@ -153,6 +153,7 @@ def test_a_turn_on_the_spot_beside_a_wall_keeps_5_cm_from_it(pinch: float) -> No
             cfg.controller,
             0.5,
             tracker.precise,
+            tracker.turn_margin(),
         )  # as the node does
         sim.command(v, w)
     assert state == "arrived"
