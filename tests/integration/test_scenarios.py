@@ -186,3 +186,17 @@ def test_safety_branch_holds_the_chair_while_someone_blocks_it_then_carries_on()
     ).run()
     assert not short["success"] and short["collisions"] == 0
     assert short["reason"] == "safety stop (obstacle) for more than 5 s"
+
+
+def test_the_demo_door_is_passed_smoothly_within_110_percent_of_the_ideal_time() -> None:
+    # issue 14: with navigator.door_procedure smooth, the chair does not stop at the door
+    scenario = load_scenario(ROOT / "scenarios" / "demo.yaml", ["navigator.door_procedure=smooth"])
+    out = Capture()
+    report = MissionRun(scenario, out=out, fleet_output=out).run()
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out.text()[-2000:])
+    phases = [p["name"] for p in report["phases"]]
+    assert "pass" in phases and not {"correct", "turn", "verify"} & set(phases), phases
+    ideal = report["planned_length_m"] / 0.5
+    assert report["sim_time_s"] <= 1.10 * ideal, (report["sim_time_s"], ideal)
+    (door,) = report["door_clearance"]
+    assert door["min_clearance_m"] >= (1.0 - 0.65) / 2 - 0.03

@@ -58,3 +58,22 @@ def test_the_door_plane_crossing_is_taken_at_the_body_centre() -> None:
     assert s["passed"] == 1 and s["lateral_max_m"] == 0.04
     assert s["lateral_rms_m"] == pytest.approx(math.sqrt((0.02**2 + 0.04**2) / 2), abs=1e-4)
     assert crossing(trace[:3], ROBOT, WALL_X) is None  # never got there
+
+
+def test_each_run_names_its_procedure_and_gives_the_simulator_the_world(tmp_path) -> None:
+    from wheelnav.bench.doors import _scenario
+    from wheelnav.mission.scenario import load_scenario
+
+    door_site(tmp_path / "map", 0.8, "hinged", 3.1 + 0.07, "left")  # the map: 7 cm off
+    door_site(tmp_path / "world", 0.8, "hinged", 3.1, "left")
+    path = _scenario(tmp_path, "r", 3, (4.0, 3.0, 0.2), "smooth", world=True)
+    sc = load_scenario(path)
+    assert sc.config.navigator.door_procedure == "smooth"
+    assert sc.config.sim.world_site.endswith("world/site.yaml")
+    (mapped,) = load_site(sc.config.site).doors
+    (real,) = load_site(sc.config.sim.world_site).doors
+    assert mapped.p1[1] - real.p1[1] == pytest.approx(0.07)
+    same = load_scenario(_scenario(tmp_path, "r", 3, (4.0, 3.0, 0.2), "stop_turn_go", False))
+    assert (
+        same.config.sim.world_site == "" and same.config.navigator.door_procedure == "stop_turn_go"
+    )
