@@ -199,8 +199,10 @@ class Docker:
     def turn_margin(self, default_m: float, manoeuvre_m: float) -> float:
         """The margin for the safety check of a turn on the spot: ``manoeuvre_m`` while a
         manoeuvre is under way (planned for a tight room, its poses reached within their
-        tolerance: the controller's precise margin), else ``default_m``."""
-        if self.plan_margin is None or not self.active:
+        tolerance: the controller's precise margin) or once none was found (the search's
+        grid is conservative by up to a cell: the turn itself is the last way left), else
+        ``default_m``."""
+        if not self.active or not self._planned:
             return default_m
         return min(default_m, manoeuvre_m)
 

@@ -503,3 +503,20 @@ def test_a_manoeuvre_before_a_door_stays_on_its_side_of_the_door() -> None:
     front = [x + fp.front * math.cos(th) for x, _y, th in poses]
     assert min(front) > 12.75 - 0.05  # its nose never past the room's wall into the doorway
     assert end.arrived and math.hypot(end.x - 13.65, end.y - 25.8625) <= DOCK.position_tolerance_m
+
+
+def test_the_turn_check_keeps_the_wide_margin_until_a_manoeuvre_is_searched_for() -> None:
+    # camp23 b2.m00: at a door 10 cm from a room's corner the turn onto the approach heading
+    # passes 4.65 cm from the wall; held at 5 cm, the docker searches a manoeuvre, and where
+    # its conservative grid finds none the turn itself is the last way left (2 cm)
+    from shared.config import RobotConfig as Robot
+
+    docker = Docker(DOCK, Robot().footprint, 0.05)
+    assert docker.turn_margin(0.05, 0.02) == 0.05  # idle
+    docker.set_goal(0.0, 0.0, math.pi / 2)
+    assert docker.turn_margin(0.05, 0.02) == 0.05  # docking, no search yet
+    boxed = np.vstack([_wall(-0.6, -0.5, -0.6, 0.5), _wall(0.9, -0.5, 0.9, 0.5)])
+    docker._plan(0.0, 0.0, 0.0, boxed)  # a search, whatever it finds
+    assert docker.turn_margin(0.05, 0.02) == 0.02
+    docker.clear()
+    assert docker.turn_margin(0.05, 0.02) == 0.05
