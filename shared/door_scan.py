@@ -287,44 +287,44 @@ def _doorway(
     return Doorway(left, right, (left + right) / 2, width, d.copy(), -s.normal, depth, is_open)
 
 
-def _leaf_faces(stretches: list[Stretch], wall: Stretch) -> list[float]:
-    """Along ``wall`` (from its end ``a``), the faces of every leaf standing across its
-    line: stretches at least ``LEAF_MIN_M`` long within ``LEAF_DEG`` of the wall's normal,
-    on the sensor's side, reaching the wall's line (the hinge; a reveal in line with the
-    face may carry it on through the wall)."""
-    d, n = wall.direction, wall.normal
-    faces = []
+def _leaves(stretches: list[Stretch], wall: Stretch, reach_m: float) -> list[Stretch]:
+    """Stretches that may be the face of a leaf standing across ``wall``'s line: at least
+    ``LEAF_MIN_M`` long, within ``LEAF_DEG`` of its normal, out on the sensor's side, the
+    nearer end within ``reach_m`` of the line."""
+    n = wall.normal
+    found = []
     for u in stretches:
         if u is wall or u.length < LEAF_MIN_M:
             continue
         if abs(float(np.dot(u.direction, n))) < math.cos(math.radians(LEAF_DEG)):
             continue
         offs = [float(np.dot(p - wall.a, n)) for p in (u.a, u.b)]
-        if min(offs) > ON_LINE_M or max(offs) < LEAF_MIN_M:
-            continue
-        faces.append(float(np.dot((u.a + u.b) / 2 - wall.a, d)))
-    return faces
+        if min(offs) <= reach_m and max(offs) >= LEAF_MIN_M:
+            found.append(u)
+    return found
+
+
+def _along(wall: Stretch, u: Stretch) -> float:
+    """Where the stretch ``u``'s middle lies along ``wall`` (from its end ``a``)."""
+    return float(np.dot((u.a + u.b) / 2 - wall.a, wall.direction))
+
+
+def _leaf_faces(stretches: list[Stretch], wall: Stretch) -> list[float]:
+    """Along ``wall``, the faces of every leaf standing across its line and reaching it
+    (the hinge; a reveal in line with the face may carry it on through the wall)."""
+    return [_along(wall, u) for u in _leaves(stretches, wall, ON_LINE_M)]
 
 
 def _leaf_face(stretches: list[Stretch], wall: Stretch, lo: float, hi: float) -> float | None:
-    """Where along ``wall`` (from its end ``a``) the face of a leaf standing across it in
-    the gap [lo, hi] is: a stretch at least ``LEAF_MIN_M`` long, within ``LEAF_DEG`` of the
-    wall's normal, on the sensor's side, its nearer end within ``LEAF_REACH_M`` of the
-    wall's line (None: no leaf)."""
-    d, n = wall.direction, wall.normal
-    best = None
-    for u in stretches:
-        if u is wall or u.length < LEAF_MIN_M:
-            continue
-        if abs(float(np.dot(u.direction, n))) < math.cos(math.radians(LEAF_DEG)):
-            continue
-        offs = [float(np.dot(p - wall.a, n)) for p in (u.a, u.b)]
-        if min(offs) > LEAF_REACH_M or max(offs) < LEAF_MIN_M:
-            continue  # not from the wall's line out towards the sensor
-        at = float(np.dot((u.a + u.b) / 2 - wall.a, d))
-        if lo - JAMB_M < at < hi + JAMB_M and (best is None or u.length > best[1]):
-            best = (at, u.length)
-    return None if best is None else best[0]
+    """Along ``wall``, the face of the longest leaf standing across it in the gap [lo, hi],
+    its nearer end within ``LEAF_REACH_M`` of the line (the part by the hinge may be hidden
+    or seen too edge-on to make a stretch); None: no leaf."""
+    inside = [
+        u
+        for u in _leaves(stretches, wall, LEAF_REACH_M)
+        if lo - JAMB_M < _along(wall, u) < hi + JAMB_M
+    ]
+    return _along(wall, max(inside, key=lambda u: u.length)) if inside else None
 
 
 def _hidden(scan: np.ndarray, wall: Stretch, c: float, end: float, inward: int) -> bool:

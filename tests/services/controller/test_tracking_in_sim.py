@@ -62,14 +62,9 @@ def test_mpc_takes_the_chair_through_a_1m_door_without_touching_it() -> None:
     assert sim.collisions == 0 and sim.min_clearance > 0.1
 
 
-def test_a_smooth_pass_path_goes_through_the_door_it_sees_without_stopping() -> None:
-    # the path the navigator sends for a smooth pass: door_ab (1.0 m at x = 6.2), the
-    # approach line 1.0 m before it, the end 1.2 m past; the chair starts 0.3 m aside
-    cfg = load(
-        None, ["sim.start.place=", "sim.start.x=3.8", "sim.start.y=2.4", "sim.start.theta=0.2"]
-    )
-    sim = Simulation(cfg, SITE)
-    sim.set_door_openings(["door_ab"], [1.0])
+def smooth_tracker(cfg) -> Tracker:
+    """A tracker given the smooth pass the navigator sends for door_ab (1.0 m at x = 6.2):
+    the approach line 1.0 m before it, the end 1.2 m past."""
     tracker = Tracker(cfg.controller, cfg.robot, SITE)
     tracker.set_path(
         "smooth",
@@ -78,6 +73,18 @@ def test_a_smooth_pass_path_goes_through_the_door_it_sees_without_stopping() -> 
         precise=True,
         door=[6.2, 2.7, 0.0, 1.0, 1.0, 1.2],
     )
+    return tracker
+
+
+def test_a_smooth_pass_path_goes_through_the_door_it_sees_without_stopping() -> None:
+    # the path the navigator sends for a smooth pass: door_ab (1.0 m at x = 6.2), the
+    # approach line 1.0 m before it, the end 1.2 m past; the chair starts 0.3 m aside
+    cfg = load(
+        None, ["sim.start.place=", "sim.start.x=3.8", "sim.start.y=2.4", "sim.start.theta=0.2"]
+    )
+    sim = Simulation(cfg, SITE)
+    sim.set_door_openings(["door_ab"], [1.0])
+    tracker = smooth_tracker(cfg)
     assert tracker.precise
     state, slowest, fresh_scan = "following", 1.0, None
     for i in range(2000):
@@ -101,14 +108,7 @@ def test_a_smooth_pass_path_goes_through_the_door_it_sees_without_stopping() -> 
 
 def test_a_smooth_pass_facing_away_from_the_door_falls_back() -> None:
     cfg = load(None, [])
-    tracker = Tracker(cfg.controller, cfg.robot, SITE)
-    tracker.set_path(
-        "smooth",
-        np.array([[5.2, 2.7], [7.4, 2.7]]),
-        np.array([0.5, 0.0]),
-        precise=True,
-        door=[6.2, 2.7, 0.0, 1.0, 1.0, 1.2],
-    )
+    tracker = smooth_tracker(cfg)
     cmd = tracker.step(3.0, 2.7, 3.1, "1", 0.0, 0.0, None, True, 0.04, None)
     assert cmd.state == "fallback" and cmd.v == 0.0
 
