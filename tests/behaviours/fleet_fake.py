@@ -62,6 +62,7 @@ class ScriptedFleet:
         self.marked = 0
         self.turning = 0.0  # the turn rate odometry reports (rad/s): a chair at work
         self.forgotten = 0
+        self.no_pose = False  # True: no pose estimate yet
 
     def now(self) -> float:
         return self.t
@@ -95,6 +96,8 @@ class ScriptedFleet:
         self.events.append((kind, detail))
 
     def pose(self) -> PoseEstimate | None:
+        if self.no_pose:
+            return None
         return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3))
 
     def odometry(self) -> Odometry:

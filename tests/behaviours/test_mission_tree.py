@@ -88,6 +88,27 @@ def test_planner_refusal_stops_safely_with_its_reason() -> None:
     assert "GOAL_OCCUPIED" in bb.failure
 
 
+def test_a_goal_before_the_first_pose_estimate_waits_for_it() -> None:
+    # free running (sim.lockstep false), the goal reached the navigator before the
+    # localisation's first pose: "ComputeRoute: no pose estimate yet" ended the mission at once
+    bb = blackboard()
+    fleet = ScriptedFleet(ROUTE)
+    fleet.no_pose = True
+    tree = grow(create_plan_tree(fleet.now, 5.0), fleet)
+    tree.tick()
+    assert tree.root.status == Status.RUNNING and not fleet.route_requests
+    fleet.no_pose, fleet.t = False, 1.0
+    tree.tick()
+    assert tree.root.status == Status.SUCCESS and bb.route is ROUTE
+    fleet = ScriptedFleet(ROUTE)  # never one: the plan's time limit ends it, saying why
+    fleet.no_pose = True
+    tree = grow(create_plan_tree(fleet.now, 5.0), fleet)
+    for t in (0.0, 5.5):
+        fleet.t = t
+        tree.tick()
+    assert tree.root.status == Status.FAILURE and "PlanTimeout" in bb.failure
+
+
 def test_silent_planner_times_out_on_fleet_time() -> None:
     bb = blackboard()
     fleet = ScriptedFleet(None)
