@@ -65,9 +65,11 @@ DRIVE = "Drive"  # the route tree's sequence of steps
 class ComputeRoute(FleetBehaviour):
     """Ask the planner for a route to the goal; RUNNING until it answers.
 
-    Sends the request in ``initialise``. SUCCESS with ``/mission/route`` written when the
-    planner returns a route; FAILURE with the planner's reason otherwise. Reads
-    ``/mission/goal`` and ``/mission/place``.
+    Sends the request in ``initialise``, or once there is a pose estimate (the route
+    starts from it; free running, a goal can come first): the time limit above bounds the
+    wait. SUCCESS with ``/mission/route`` written when the planner returns a route;
+    FAILURE with the planner's reason otherwise. Reads ``/mission/goal`` and
+    ``/mission/place``.
     """
 
     phase = Phase.PLAN
@@ -82,6 +84,14 @@ class ComputeRoute(FleetBehaviour):
     def initialise(self) -> None:
         self.bb.phase = self.phase
         self._answer = None
+        self._token = None
+        self._request()
+
+    def _request(self) -> None:
+        """Ask the planner, once there is a pose estimate to start from."""
+        if self.fleet.pose() is None:
+            self.feedback_message = "waiting for a pose estimate"
+            return
         self.feedback_message = "waiting for the planner"
         token = object()
         self._token = token
@@ -93,6 +103,8 @@ class ComputeRoute(FleetBehaviour):
         self.fleet.request_route(self.bb.goal, self.bb.place, on_done)
 
     def update(self) -> Status:
+        if self._token is None:
+            self._request()
         if self._answer is None:
             return Status.RUNNING
         reply, error = self._answer

@@ -97,21 +97,24 @@ def main(argv: list[str] | None = None) -> None:
             svc.declare("publishes", keys.key(name))
 
         svc.ready()
-        if cfg.sim.lockstep:
-            _wait_for_fleet(svc, barrier, wake)
+        _wait_for_fleet(svc, barrier, wake, cfg.sim.lockstep)
         _run(svc, sim, barrier, wake, profile)
         sim.close()
 
 
-def _wait_for_fleet(svc: Service, barrier: Barrier, wake: threading.Condition) -> None:
-    """Hold the clock at 0 until the services in ``sim.start_after`` are up (bounded).
+def _wait_for_fleet(
+    svc: Service, barrier: Barrier, wake: threading.Condition, lockstep: bool
+) -> None:
+    """Hold the clock at 0 until the services in ``sim.start_after`` are up (bounded), in
+    lockstep or free running (which started at once: a goal sent before the planner was up
+    ended a mission at 0.1 s).
 
     Lockstep participants count only once the barrier itself has seen their liveliness
     token: starting on a liveliness query's answer alone could run the first ticks
     without waiting for a participant whose token the barrier has not yet received.
     """
     wanted = set(svc.cfg.sim.start_after)
-    participants = wanted & set(barrier.stage_of)
+    participants = wanted & set(barrier.stage_of) if lockstep else set()
     others = wanted - participants
     deadline = time.monotonic() + svc.cfg.sim.start_wait_s
     present: set[str] = set()
@@ -186,8 +189,8 @@ def _run(
         for stage in range(barrier.n_stages):
             with wake:
                 due = barrier.waiting_on(result.tick, stage) if cfg.sim.lockstep else []
-            if stage > 0 and not due:
-                continue
+            if cfg.sim.lockstep and stage > 0 and not due:
+                continue  # nobody in this stage is due this tick (free running: all are)
             stage_start = clock()
             bus.publish(clock_keys[stage], Clock(stamp, result.tick, sim.dt, stage))
             if due and not _wait_stage(svc, barrier, wake, result.tick, stage):

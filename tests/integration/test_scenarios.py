@@ -200,3 +200,15 @@ def test_the_demo_door_is_passed_smoothly_within_110_percent_of_the_ideal_time()
     assert report["sim_time_s"] <= 1.10 * ideal, (report["sim_time_s"], ideal)
     (door,) = report["door_clearance"]
     assert door["min_clearance_m"] >= (1.0 - 0.65) / 2 - 0.03
+
+
+def test_the_demo_runs_free_of_lockstep_too() -> None:
+    # sim.lockstep false: the simulator steps at its own pace (here twice real time) and
+    # publishes every stage's clock each tick; before, the controller's and the navigator's
+    # stages never ticked and the mission stood until its limit
+    scenario = load_scenario(
+        ROOT / "scenarios" / "demo.yaml", ["sim.lockstep=false", "sim.realtime_factor=2"]
+    )
+    out = Capture()
+    report = MissionRun(scenario, out=out, fleet_output=out).run()
+    assert report["success"] and report["collisions"] == 0, (report["reason"], out.text()[-2000:])
