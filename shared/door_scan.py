@@ -266,7 +266,7 @@ def _doorway(
         return None  # something on the wall's line in the gap: a leaf, a post
     c = float(np.dot(s.normal, s.a))
     ends = [(e, side) for e, side in ((lo, +1), (hi, -1)) if leaf is None or e != leaf]
-    if any(_hidden(scan, s, c, e, side) for e, side in ends):
+    if any(_hidden(scan, off, s, c, e, side) for e, side in ends):
         return None  # a jamb at the edge of a shadow: the wall may go on behind it
     beyond = off < -ON_LINE_M
     if not np.any(beyond):
@@ -327,10 +327,12 @@ def _leaf_face(stretches: list[Stretch], wall: Stretch, lo: float, hi: float) ->
     return _along(wall, max(inside, key=lambda u: u.length)) if inside else None
 
 
-def _hidden(scan: np.ndarray, wall: Stretch, c: float, end: float, inward: int) -> bool:
+def _hidden(
+    scan: np.ndarray, off: np.ndarray, wall: Stretch, c: float, end: float, inward: int
+) -> bool:
     """True if beams that cross ``wall``'s line just inside the gap from ``end`` (towards
-    ``inward``) end on something nearer than the wall: the end is the edge of a shadow."""
-    off = (scan - wall.a) @ wall.normal
+    ``inward``) end on something nearer than the wall: the end is the edge of a shadow.
+    ``off``: each return's distance from the wall's line, towards the sensor."""
     front = scan[off > ON_LINE_M]
     if len(front) == 0:
         return False
