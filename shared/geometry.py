@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 
@@ -72,15 +73,35 @@ def moves_close_in(
 ) -> bool:
     """True if the rectangle at any of ``poses`` (chair frame) comes within ``margin`` of a
     point (N, 2, chair frame), or nearer to one already within it: what a move sweeps into
-    (points it keeps its distance from, a jamb beside a straight pass, do not count)."""
-    if len(xy) == 0:
+    (points it keeps its distance from, a jamb beside a straight pass, do not count).
+
+    Compiled: the controller's guard asks this of every scan point at every step."""
+    if len(xy) == 0 or len(poses) == 0:
         return False
-    gap = footprint_gap(xy, front, rear, width)
-    floor = np.minimum(gap, margin) - 1e-3  # how near each point may come
-    for px, py, phi in poses:
-        c, s = math.cos(phi), math.sin(phi)
-        dx, dy = xy[:, 0] - px, xy[:, 1] - py
-        moved = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
-        if (footprint_gap(moved, front, rear, width) < floor).any():
-            return True
+    pts = np.ascontiguousarray(xy[:, :2], dtype=np.float64)
+    trig = np.array([(px, py, math.cos(phi), math.sin(phi)) for px, py, phi in poses])
+    return bool(_moves_close_in(pts, float(front), float(rear), float(width), float(margin), trig))
+
+
+@numba.njit(cache=True, inline="always")
+def _rect_gap(x: float, y: float, front: float, rear: float, half: float) -> float:
+    dx = max(max(-rear - x, x - front), 0.0)
+    dy = max(abs(y) - half, 0.0)
+    return math.hypot(dx, dy)
+
+
+@numba.njit(cache=True)
+def _moves_close_in(
+    xy: np.ndarray, front: float, rear: float, width: float, margin: float, trig: np.ndarray
+) -> bool:
+    """:func:`moves_close_in` over points (N, 2) and poses (K, 4: x, y, cos, sin)."""
+    half = width / 2.0
+    for i in range(xy.shape[0]):
+        x, y = xy[i, 0], xy[i, 1]
+        floor = min(_rect_gap(x, y, front, rear, half), margin) - 1e-3
+        for k in range(trig.shape[0]):
+            dx, dy = x - trig[k, 0], y - trig[k, 1]
+            c, s = trig[k, 2], trig[k, 3]
+            if _rect_gap(c * dx + s * dy, -s * dx + c * dy, front, rear, half) < floor:
+                return True
     return False

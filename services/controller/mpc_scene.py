@@ -18,8 +18,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
+from services.controller.edt import distance_transform
 from shared.config import Footprint
 
 FAR = 1.0e3  # clearance (m) reported where nothing is near
@@ -161,7 +161,7 @@ def obstacle_field(
     rows = ((pts[:, 1] - lo[1]) / res).astype(int)
     free = np.ones((shape[1], shape[0]), dtype=bool)
     free[np.clip(rows, 0, shape[1] - 1), np.clip(cols, 0, shape[0] - 1)] = False
-    dist = distance_transform_edt(free).astype(np.float32)
+    dist = distance_transform(free)
     dist *= np.float32(res)
     dist -= np.float32(2.0 * _half_diag(res))
     return Field(dist, float(lo[0]), float(lo[1]), res, FAR)
