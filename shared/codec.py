@@ -88,26 +88,38 @@ def encode(msg: Msg) -> bytes:
 # --------------------------------------------------------------------------------------
 
 
+_HEADER_PEEK = 256  # bytes read for an array's header (dtype and shape) before its body
+
+
 def _unpack_ext(code: int, data: bytes) -> Any:
     if code != _EXT_NDARRAY:
         raise DecodeError(f"unknown msgpack extension type {code}")
     unpacker = msgpack.Unpacker(raw=False)
-    unpacker.feed(data)
+    # the header is a few bytes: read it from the front instead of copying a whole scan in
+    unpacker.feed(data[:_HEADER_PEEK])
     try:
-        dtype_str, shape = unpacker.unpack()
+        try:
+            header = unpacker.unpack()
+        except msgpack.OutOfData:  # a long shape: read the header from the whole buffer
+            unpacker = msgpack.Unpacker(raw=False)
+            unpacker.feed(data)
+            header = unpacker.unpack()
+        dtype_str, shape = header
         offset = unpacker.tell()
         dtype = np.dtype(dtype_str)
     except Exception as exc:
         raise DecodeError(f"bad array header: {exc}") from None
     if dtype.hasobject:
         raise DecodeError("object arrays are not allowed")
+    if not isinstance(shape, list) or not all(type(n) is int and n >= 0 for n in shape):
+        raise DecodeError(f"bad array shape {shape!r}")
     count = math.prod(shape) if shape else 1
-    body = data[offset:]
-    if len(body) != count * dtype.itemsize:
+    size = len(data) - offset
+    if size != count * dtype.itemsize:
         raise DecodeError(
-            f"array of shape {shape} {dtype} needs {count * dtype.itemsize} bytes, got {len(body)}"
+            f"array of shape {shape} {dtype} needs {count * dtype.itemsize} bytes, got {size}"
         )
-    return np.frombuffer(body, dtype=dtype).reshape(shape).copy()
+    return np.frombuffer(data, dtype=dtype, count=count, offset=offset).reshape(shape).copy()
 
 
 def peek_tag(payload: bytes) -> str:

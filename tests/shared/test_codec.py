@@ -150,3 +150,21 @@ def test_nan_in_command_is_refused_at_the_sender() -> None:
 
 def test_peek_tag() -> None:
     assert peek_tag(good()) == "twist"
+
+
+@pytest.mark.parametrize("shape", [[-1, -12], ["a"], [4, 3.0], 12, [1] * 300])
+def test_bad_array_headers_raise_decode_errors(shape: object) -> None:
+    """An array's shape is checked before its bytes are read (a hostile header of
+    negative or non-integer dimensions, or one longer than the bytes read for it first)."""
+    header = msgpack.packb(["<f4", shape])
+    body = np.zeros(12, np.float32).tobytes()
+    wire = {"stamp": 0.0, "frame": "lidar", "points": msgpack.ExtType(1, header + body)}
+    with pytest.raises(DecodeError, match="array"):
+        decode(msgpack.packb({"t": m.PointCloud.TAG, "v": 1, "d": wire}), m.PointCloud)
+
+
+def test_decoded_arrays_are_writable_copies() -> None:
+    pts = np.arange(12, dtype=np.float32).reshape(4, 3)
+    back = decode(encode(m.PointCloud(0.0, "lidar", pts)), m.PointCloud).points
+    back[0, 0] = 99.0  # consumers may work in place
+    assert np.array_equal(back[1:], pts[1:]) and pts[0, 0] == 0.0

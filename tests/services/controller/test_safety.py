@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from services.controller.safety import guard, stop_zone_hit, stop_zone_length, turn_sweep_hit
+from services.controller.safety import (
+    guard,
+    guard_points,
+    stop_zone_hit,
+    stop_zone_length,
+    turn_sweep_hit,
+)
 from shared.config import ControllerConfig, RobotConfig, SimConfig
 from sim.robot import Chair, ChairState
 
@@ -178,3 +184,24 @@ def test_the_stop_zone_covers_the_braking_distance() -> None:
     # it came to rest 0.019 m from it; braking at robot.max_accel takes longer than the zone
     for v in (0.15, 0.3, 0.45, ROBOT.max_speed):
         assert _stop_before_a_wall(v) >= CFG.stop_min_distance_m, v
+
+
+def test_the_guard_decides_the_same_on_guard_points_as_on_the_whole_scan() -> None:
+    """guard_points drops only points no check can reach: same answers, any command."""
+    rng = np.random.default_rng(7)
+    stops = 0
+    for _ in range(300):
+        n = int(rng.integers(1, 400))
+        scan = np.column_stack((rng.uniform(-4, 4, (n, 2)), rng.uniform(-0.6, 0.6, n))).astype(
+            np.float32
+        )
+        v = float(rng.uniform(-ROBOT.max_reverse_speed, ROBOT.max_speed))
+        w = float(rng.uniform(-ROBOT.max_turn_rate, ROBOT.max_turn_rate))
+        precise = bool(rng.integers(2))
+        margin = float(rng.choice([ROBOT.side_margin_m, CFG.precise_side_margin_m]))
+        near = guard_points(scan, ROBOT, CFG, 0.3)
+        whole = guard(v, w, "following", 1.0, True, 1.0, scan, ROBOT, CFG, 0.3, precise, margin)
+        kept = guard(v, w, "following", 1.0, True, 1.0, near, ROBOT, CFG, 0.3, precise, margin)
+        assert whole == kept
+        stops += whole[2] == "obstacle"
+    assert 30 < stops < 270  # both answers were exercised
