@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from shared.messages import LockstepProfile
+from wheelnav.bench.cpu import cpu_seconds
 from wheelnav.mission.run import MissionRun
 from wheelnav.mission.scenario import load_scenario
 
@@ -25,9 +27,12 @@ TARGET = 10.0
 
 
 class ProfiledRun(MissionRun):
-    """A mission run that keeps the simulator's latest lockstep profile."""
+    """A mission run that keeps the simulator's latest lockstep profile, and the fleet's
+    CPU seconds at the first and the latest profile (with their tick counts)."""
 
     profile: LockstepProfile | None = None
+    cpu_first: tuple[int, dict[str, float]] | None = None
+    cpu_last: tuple[int, dict[str, float]] | None = None
 
     def _wire(self, bus) -> None:
         super()._wire(bus)
@@ -35,6 +40,34 @@ class ProfiledRun(MissionRun):
 
     def _on_profile(self, msg: LockstepProfile) -> None:
         self.profile = msg
+        reading = (msg.ticks, cpu_seconds())
+        if self.cpu_first is None:
+            self.cpu_first = reading
+        else:
+            self.cpu_last = reading
+
+
+def cpu_rows(
+    first: tuple[int, dict[str, float]] | None,
+    last: tuple[int, dict[str, float]] | None,
+    dt: float,
+    cores: int,
+) -> dict[str, Any] | None:
+    """CPU milliseconds per tick by process between two readings, their sum, and the
+    real-time factor that sum allows on ``cores`` cores (None without two readings)."""
+    if first is None or last is None or last[0] <= first[0] or not last[1]:
+        return None
+    ticks = last[0] - first[0]
+    per_tick = {
+        name: 1e3 * (used - first[1].get(name, 0.0)) / ticks for name, used in last[1].items()
+    }
+    total = sum(per_tick.values())
+    return {
+        "cpu_ms": {k: round(v, 3) for k, v in sorted(per_tick.items(), key=lambda kv: -kv[1])},
+        "cpu_total_ms": round(total, 3),
+        "cores": cores,
+        "cpu_bound_factor": round(cores * 1e3 * dt / total, 2) if total > 0 else 0.0,
+    }
 
 
 def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
@@ -85,6 +118,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"no lockstep profile heard: {report['reason']}", file=sys.stderr)
         return 1
     figures = summarise(run.profile, scenario.config.sim.lockstep_stages)
+    cpu = cpu_rows(run.cpu_first, run.cpu_last, run.profile.dt, os.cpu_count() or 1)
+    if cpu is not None:
+        figures.update(cpu)
     figures["scenario"] = scenario.name
     figures["success"] = report["success"]
     if args.json:
@@ -103,4 +139,13 @@ def main(argv: list[str] | None = None) -> int:
         share = f"{100 * value / total:5.1f}%" if total > 0 and not name.startswith("    ") else ""
         print(f"  {name:58s} {value:8.3f} {share:>6s}")
     print(f"  {'total':58s} {total:8.3f}")
+    if cpu is not None:
+        print("CPU a tick costs, by process (its threads and Zenoh's, from /proc):")
+        for name, value in cpu["cpu_ms"].items():
+            print(f"  {name:58s} {value:8.3f}")
+        print(f"  {'total':58s} {cpu['cpu_total_ms']:8.3f}")
+        print(
+            f"on {cpu['cores']} cores that CPU allows at most {cpu['cpu_bound_factor']:.1f}x real"
+            " time, with every core busy all the time"
+        )
     return 0 if report["success"] else 1

@@ -1,0 +1,43 @@
+"""The fleet bench's CPU table: readings of real child processes, and the bound they set."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import pytest
+
+from wheelnav.bench.cpu import PROC, cpu_seconds
+from wheelnav.bench.fleet import cpu_rows
+
+BURN = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.6: pass\n"
+
+
+@pytest.mark.skipif(not PROC.is_dir(), reason="reads Linux's /proc")
+def test_a_busy_child_is_named_by_its_module_and_charged_its_cpu(tmp_path) -> None:
+    (tmp_path / "burner.py").write_text(BURN + "time.sleep(30)\n")
+    child = subprocess.Popen([sys.executable, "-m", "burner"], cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            used = cpu_seconds().get("burner", 0.0)
+            if used >= 0.5:
+                break
+            time.sleep(0.1)
+        assert used >= 0.5
+        assert "runner" in cpu_seconds()  # this process itself
+    finally:
+        child.kill()
+        child.wait()
+
+
+def test_cpu_rows_divide_by_the_ticks_between_readings_and_bound_the_factor() -> None:
+    first = (100, {"sim": 1.0, "controller": 2.0})
+    last = (600, {"sim": 2.0, "controller": 4.0, "router": 0.5})
+    rows = cpu_rows(first, last, dt=0.02, cores=2)
+    assert rows["cpu_ms"] == {"controller": 4.0, "sim": 2.0, "router": 1.0}
+    assert rows["cpu_total_ms"] == 7.0
+    assert rows["cpu_bound_factor"] == pytest.approx(2 * 20.0 / 7.0, abs=0.01)
+    assert cpu_rows(first, None, 0.02, 2) is None
+    assert cpu_rows(first, (100, {"sim": 1.0}), 0.02, 2) is None

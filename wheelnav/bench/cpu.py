@@ -1,0 +1,63 @@
+"""CPU time of this process and every process it started, read from Linux's /proc.
+
+``wheelnav bench fleet`` takes a reading at two lockstep profiles and divides by the ticks
+between them: the CPU a tick costs, summed over the fleet (the processes' own threads and
+Zenoh's), is what bounds the real-time factor on a machine of few cores, whatever the
+scheduling. Elsewhere than Linux the readings are empty and the bench leaves the table out.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+PROC = Path("/proc")
+_TICK_S = 1.0 / os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 0.01
+
+
+def _stat(pid: int) -> tuple[int, float] | None:
+    """(parent pid, user + system CPU seconds) of ``pid``, None if it is gone."""
+    try:
+        text = (PROC / str(pid) / "stat").read_text()
+    except OSError:
+        return None
+    fields = text[text.rindex(")") + 2 :].split()  # the name may hold spaces and ")"
+    return int(fields[1]), (int(fields[11]) + int(fields[12])) * _TICK_S
+
+
+def _name(pid: int) -> str:
+    """A short name from the command line: the module after ``-m`` (services.sim.node ->
+    sim, wheelnav.launcher.router -> router), else the program's file name."""
+    try:
+        argv = (PROC / str(pid) / "cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return str(pid)
+    args = [a.decode(errors="replace") for a in argv if a]
+    if "-m" in args[:-1]:
+        parts = args[args.index("-m") + 1].split(".")
+        return parts[1] if parts[0] == "services" and len(parts) > 1 else parts[-1]
+    return Path(args[0]).name if args else str(pid)
+
+
+def cpu_seconds() -> dict[str, float]:
+    """CPU seconds used so far by this process ("runner") and each descendant, by name
+    (empty where /proc is missing)."""
+    if not PROC.is_dir():
+        return {}
+    me = os.getpid()
+    parents: dict[int, int] = {}
+    used: dict[int, float] = {}
+    for entry in PROC.iterdir():
+        if entry.name.isdigit():
+            stat = _stat(int(entry.name))
+            if stat is not None:
+                parents[int(entry.name)], used[int(entry.name)] = stat
+    out: dict[str, float] = {}
+    for pid, seconds in used.items():
+        p, hops = pid, 0
+        while p not in (me, 0, 1) and p in parents and hops < 32:
+            p, hops = parents[p], hops + 1
+        if p == me:
+            name = "runner" if pid == me else _name(pid)
+            out[name] = out.get(name, 0.0) + seconds
+    return out
