@@ -162,9 +162,12 @@ class SmoothDoorPass(FleetBehaviour):
     controller) and by the LiDAR in ``scans`` scans in a row. FAILURE, the chair stopped,
     when the door is not seen open by the time the chair's front is ``commit_m`` before
     the door plane, when it is seen closing before the front reaches the plane, or when
-    the controller gives up (facing away from the door: "fallback"; "blocked"): the
-    stop-turn-go steps beside it in a selector take over. SUCCESS once through, still
-    moving: its rear ``commit_m`` past the plane, the next leg takes over.
+    the controller gives up (facing away from the door: "fallback"; "blocked"), or when
+    its safety stop holds the chair for ``hold_s`` before the plane (a curve from the side
+    that swings a corner at an open leaf: waiting for the navigator's recovery took 8 s
+    and a back-up): the stop-turn-go steps beside it in a selector take over. SUCCESS
+    once through, still moving: its rear ``commit_m`` past the plane, the next leg takes
+    over.
     """
 
     phase = Phase.PASS
@@ -181,6 +184,7 @@ class SmoothDoorPass(FleetBehaviour):
         scans: int = 3,
         building: bool = True,
         commit_m: float = 0.5,
+        hold_s: float = 1.0,
     ) -> None:
         super().__init__(f"Smooth pass {door_id}")
         self.door_id = door_id
@@ -192,13 +196,16 @@ class SmoothDoorPass(FleetBehaviour):
         self.rear_m = rear_m
         self.building = building
         self.commit_m = commit_m
+        self.hold_s = hold_s
         self.lidar = OpenInScans(scans)
         self.verified = False
+        self._quit = ""
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
         self.lidar.reset()
         self.verified = False
+        self._quit = ""
         self.fleet.send_path(self.path)
 
     def _front_to_plane(self) -> float | None:
@@ -212,6 +219,15 @@ class SmoothDoorPass(FleetBehaviour):
             (nose[0] - self.centre[0]) * self.normal[0]
             + (nose[1] - self.centre[1]) * self.normal[1]
         )
+
+    def quits_when_held(self, cause: str, held_s: float) -> bool:
+        """Asked by the safety gate while it holds the chair: True (and FAILURE at the next
+        update) once the safety stop has held it ``hold_s`` before the door plane."""
+        ahead = self._front_to_plane()
+        if cause == "obstacle" and held_s >= self.hold_s and ahead is not None and ahead > 0:
+            self._quit = f"held by the safety stop for {held_s:.1f} s"
+            return True
+        return False
 
     def _out(self, to_go: float) -> bool:
         """True once the chair's rear is ``commit_m`` past the door plane (``to_go`` of the
@@ -232,6 +248,8 @@ class SmoothDoorPass(FleetBehaviour):
             return Status.SUCCESS
         if mine and status.state in ("fallback", "blocked"):
             return self._give_up(f"controller: {status.state}")
+        if self._quit:
+            return self._give_up(self._quit)
         mode = self.fleet.door_mode(self.door_id) if self.building else DoorMode.OPEN
         ahead = self._front_to_plane()
         if not self.verified:

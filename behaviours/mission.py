@@ -395,6 +395,7 @@ def _smooth_pass(cp, route_id: str, p: EntryParams) -> SmoothDoorPass:
         p.nav.door_scans,
         building=cp.controller,
         commit_m=p.nav.smooth_commit_m,
+        hold_s=p.nav.smooth_hold_s,
     )
 
 

@@ -8,7 +8,9 @@ logic: it stops ticking the mission (pre-empting every phase, without resetting 
 progress, so the chair carries on where it was when the cause clears), reports when a
 stop starts and ends, and fails the mission if one lasts longer than its timeout. A hold
 that moving might clear (an obstacle, boxed in) hands over to the navigator's recoveries
-after ``recover_after_s`` instead (behaviours/recovery.py). Phase
+after ``recover_after_s`` instead (behaviours/recovery.py), or sooner to a step that has
+a way round of its own (``quits_when_held``: a smooth door pass hands the door to
+stop-turn-go). Phase
 limits count the time under a hold: one that runs out while the gate holds ends its
 phase there and then, as it would have with the chair moving.
 """
@@ -96,6 +98,12 @@ class SafetyGate(py_trees.decorators.Decorator):
             self.fleet.event("safety_stop", f"{cause}: {expired.name} limit reached while held")
             yield from super().tick()
             return
+        quitter = self.quitting(cause, now - self.since)
+        if quitter is not None:  # a step with a way round the hold of its own takes it
+            self.fleet.event("safety_stop", f"{cause}: {quitter.name} gives up while held")
+            self.since, self.clear_since, self.cause = None, None, ""
+            yield from super().tick()
+            return
         if self.status != Status.RUNNING:
             self.initialise()
         held = now - self.since
@@ -123,6 +131,16 @@ class SafetyGate(py_trees.decorators.Decorator):
             self.feedback_message = f"holding: {cause} for {held:.1f} s"
             self.status = Status.RUNNING
         yield self
+
+    def quitting(self, cause: str, held_s: float) -> py_trees.behaviour.Behaviour | None:
+        """A running step below the gate that gives up under this hold (it has a
+        ``quits_when_held(cause, held_s)`` saying so): it is ticked to fail, so the
+        fallback beside it takes over instead of the navigator's recoveries."""
+        for b in self.decorated.iterate():
+            quits = getattr(b, "quits_when_held", None)
+            if b.status == Status.RUNNING and quits is not None and quits(cause, held_s):
+                return b
+        return None
 
     def expired_limit(self, now: float) -> Timeout | None:
         """A running phase limit below the gate whose time is up (hold time counts)."""

@@ -404,6 +404,10 @@ class NavigatorConfig:
     # smooth_commit_m before the door plane, or the chair stops and does stop-turn-go
     smooth_handover_m: float = field(default=1.5, metadata=check(_non_negative))
     smooth_commit_m: float = field(default=0.5, metadata=check(_non_negative))
+    # smooth: held by the controller's safety stop this long before the door plane (the
+    # curve swung a corner at an open leaf), the pass gives up for stop-turn-go at once
+    # instead of waiting out the hold that starts a recovery
+    smooth_hold_s: float = field(default=1.0, metadata=check(_positive))
     # while a mission holds a lift or a powered door it asked open, it asks again this
     # often (the building's sessions are leases, building.lift_session_lease_s and
     # building.door_session_lease_s); keep it well under those leases

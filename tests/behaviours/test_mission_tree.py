@@ -700,6 +700,29 @@ def test_the_controller_falling_back_hands_the_door_to_stop_turn_go() -> None:
     assert fleet.sent[-1].path_id == "Correct d1 #1"
 
 
+def test_a_smooth_pass_held_by_the_safety_stop_hands_over_to_stop_turn_go() -> None:
+    """A curve from the side that swings a corner at an open leaf is stopped by the guard:
+    after navigator.smooth_hold_s the door goes to stop-turn-go, not to a recovery 8 s on."""
+    blackboard()
+    fleet = ScriptedFleet(None)
+    fleet.doors["d1"] = DoorMode.OPEN
+    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
+    tree.tick()
+    _following(fleet, 0.9)
+    fleet.x = 0.2  # its front 1.25 m before the plane
+    tree.tick()
+    smooth_id = fleet.sent[-1].path_id
+    for _ in range(5):  # held 0.8 s: a pedestrian's moment, still smooth
+        fleet.follow = FollowStatus(fleet.t, smooth_id, "obstacle", 0.1, 1.8, 0.0)
+        tree.tick()
+        fleet.t += 0.2
+    assert fleet.sent[-1].path_id == smooth_id
+    fleet.t += 0.2  # held 1.0 s
+    fleet.follow = FollowStatus(fleet.t, smooth_id, "obstacle", 0.1, 1.8, 0.0)
+    tree.tick()
+    assert fleet.commands[-2:] == ["stop", "Correct d1 #1"]
+
+
 def test_stop_turn_go_stays_for_automatic_doors_and_by_default() -> None:
     for cp, nav in ((replace(SMOOTH_DOOR, door_type="automatic"), "smooth"), (SMOOTH_DOOR, None)):
         blackboard()
