@@ -234,7 +234,13 @@ def fleet_two_floors(router, tmp_path):
     yield from _fleet(router, tmp_path, ROOT / "scenarios" / "two_floors.yaml")
 
 
-def _fleet(router, tmp_path, scenario_path: Path):
+@pytest.fixture
+def fleet_wall_time(router, tmp_path):
+    """As ``fleet``, free running at real time (``sim.lockstep: false``): wall time."""
+    yield from _fleet(router, tmp_path, DEMO, lockstep=False)
+
+
+def _fleet(router, tmp_path, scenario_path: Path, lockstep: bool = True):
     bus, endpoint = router
     scenario = load_scenario(scenario_path)
     cfg_path = tmp_path / "fleet.yaml"
@@ -243,6 +249,8 @@ def _fleet(router, tmp_path, scenario_path: Path):
     from shared import config as config_mod
 
     cfg = scenario.config
+    if not lockstep:
+        cfg.sim.lockstep, cfg.sim.realtime_factor = False, 1.0
     cfg.sim.start_after = [s.name for s in services_for("sim") if s.name != "sim"]
     cfg_path.write_text(yaml.safe_dump(config_mod.to_dict(cfg)))
     out = Capture()
@@ -480,3 +488,26 @@ def test_a_killed_navigator_takes_the_mission_up_again(request, where, phase, ho
     with heard.lock:
         events = list(heard.seen["events"])
     assert any(e.kind == "resumed" and how in e.detail for e in events), events
+
+
+def test_a_killed_navigator_takes_the_mission_up_again_on_wall_time(fleet_wall_time) -> None:
+    """Free running, nothing waits for the navigator: the chair finishes the pass it was
+    sent on and stops at its end; the restarted navigator reads its state back and plans
+    again from there, and the mission succeeds."""
+    from shared.messages import Event
+
+    bus, _endpoint, sup, keys, scenario, _out = fleet_wall_time
+    heard = _heard(fleet_wall_time)
+    heard.keep("events", keys.key("events", source="navigator"), Event)
+    bus.publish(keys.nav_goal, NavGoal(0.0, "nav-kill-wall", None, scenario.place))
+    heard.wait_for(lambda s: s["status"] and s["status"][-1].phase == "pass", 180, "no pass phase")
+    old_pid = sup.pid("navigator")
+    os.kill(old_pid, signal.SIGKILL)
+    with heard.lock:
+        killed_at = len(heard.seen["status"])
+    done = heard.mission_end("nav-kill-wall", after=killed_at)
+    assert done.state == "succeeded", done.reason
+    assert sup.restarts("navigator") == 1 and sup.pid("navigator") not in (None, old_pid)
+    with heard.lock:
+        events = list(heard.seen["events"])
+    assert any(e.kind == "resumed" and "planning again" in e.detail for e in events), events
