@@ -672,14 +672,24 @@ def test_a_door_seen_open_from_the_leg_is_passed_without_stopping() -> None:
     assert not any(p.dock_heading is not None for p in fleet.sent)  # no Phase 0 nor 1
 
 
-def test_a_door_not_seen_open_in_time_is_passed_by_stop_turn_go() -> None:
+def _handed_over(
+    door_mode: DoorMode, x: float = 0.0
+) -> tuple[ScriptedFleet, py_trees.trees.BehaviourTree]:
+    """A smooth-door route tree whose leg has just handed over to the smooth pass, the
+    chair at ``x`` (the door's plane at 2.2)."""
     blackboard()
     fleet = ScriptedFleet(None)
-    fleet.doors["d1"] = DoorMode.CLOSED
+    fleet.doors["d1"] = door_mode
     tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
     tree.tick()
     _following(fleet, 0.9)
+    fleet.x = x
     tree.tick()
+    return fleet, tree
+
+
+def test_a_door_not_seen_open_in_time_is_passed_by_stop_turn_go() -> None:
+    fleet, tree = _handed_over(DoorMode.CLOSED)
     assert fleet.sent[-1].door
     _following(fleet, 1.5)
     fleet.x = 1.0  # its front 0.44 m before the plane: within smooth_commit_m, not open
@@ -688,13 +698,7 @@ def test_a_door_not_seen_open_in_time_is_passed_by_stop_turn_go() -> None:
 
 
 def test_the_controller_falling_back_hands_the_door_to_stop_turn_go() -> None:
-    blackboard()
-    fleet = ScriptedFleet(None)
-    fleet.doors["d1"] = DoorMode.OPEN
-    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
-    tree.tick()
-    _following(fleet, 0.9)
-    tree.tick()
+    fleet, tree = _handed_over(DoorMode.OPEN)
     fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "fallback", 0.0, 2.0, 0.0)
     tree.tick()
     assert fleet.sent[-1].path_id == "Correct d1 #1"
@@ -703,14 +707,7 @@ def test_the_controller_falling_back_hands_the_door_to_stop_turn_go() -> None:
 def test_a_smooth_pass_held_by_the_safety_stop_hands_over_to_stop_turn_go() -> None:
     """A curve from the side that swings a corner at an open leaf is stopped by the guard:
     after navigator.smooth_hold_s the door goes to stop-turn-go, not to a recovery 8 s on."""
-    blackboard()
-    fleet = ScriptedFleet(None)
-    fleet.doors["d1"] = DoorMode.OPEN
-    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
-    tree.tick()
-    _following(fleet, 0.9)
-    fleet.x = 0.2  # its front 1.25 m before the plane
-    tree.tick()
+    fleet, tree = _handed_over(DoorMode.OPEN, x=0.2)  # its front 1.25 m before the plane
     smooth_id = fleet.sent[-1].path_id
     for _ in range(5):  # held 0.8 s: a pedestrian's moment, still smooth
         fleet.follow = FollowStatus(fleet.t, smooth_id, "obstacle", 0.1, 1.8, 0.0)
