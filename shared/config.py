@@ -295,6 +295,60 @@ class MPCConfig:
 
 
 @dataclass
+class DoorScanConfig:
+    """How doorways are found in one LiDAR scan (shared/door_scan.py; the smooth door pass
+    steers by them). Defaults suit a VLP-16 and indoor walls."""
+
+    # the planar scan: nearest return per azimuth bin (a VLP-16 turns 0.2 deg per
+    # return), within the height band around the sensor (walls and jambs, not the floor)
+    bin_deg: float = field(default=0.25, metadata=check(_positive))
+    band_m: float = field(default=0.5, metadata=check(_positive))
+    # the breakpoint detector: worst incidence angle on a surface, and range noise (it
+    # adds three of it to a jump a beam can explain)
+    breakpoint_angle_deg: float = field(default=10.0, metadata=check(_positive))
+    range_sigma_m: float = field(default=0.01, metadata=check(_non_negative))
+    # Iterative End-Point Fit splits a stretch at a return this far from its chord; a
+    # stretch of wall has at least min_points returns and min_length_m
+    split_m: float = field(default=0.03, metadata=check(_positive))
+    min_points: int = field(default=5, metadata=check(lambda v: None if v >= 2 else "must be >= 2"))
+    min_length_m: float = field(default=0.15, metadata=check(_positive))
+    # a doorway's free width lies in [min_width_m, max_width_m]
+    min_width_m: float = field(default=0.6, metadata=check(_positive))
+    max_width_m: float = field(default=1.6, metadata=check(_positive))
+    # a return this near a wall's line is on it; the two stretches of one wall differ in
+    # direction by at most parallel_deg
+    on_line_m: float = field(default=0.04, metadata=check(_positive))
+    parallel_deg: float = field(default=8.0, metadata=check(_positive))
+    # returns within jamb_m of a jamb (its corner, the reveal behind it) are the jamb's; a
+    # reveal's returns lie within reveal_m of its jamb's line; returns of one wall face
+    # are closer together than step_m; a reveal is looked for up to max_depth_m deep
+    jamb_m: float = field(default=0.1, metadata=check(_positive))
+    reveal_m: float = field(default=0.02, metadata=check(_positive))
+    step_m: float = field(default=0.06, metadata=check(_positive))
+    max_depth_m: float = field(default=0.5, metadata=check(_positive))
+    # a hinged leaf standing open shows at least leaf_min_m of its face, within leaf_deg
+    # of the wall's normal, its nearer end at most leaf_reach_m from the wall's line (the
+    # part by the hinge may be hidden or too edge-on to make a stretch); returns within
+    # leaf_thickness_m of its face along the wall are the leaf's; leaf_side_m is its
+    # thickness, added when only its outer face shows
+    leaf_min_m: float = field(default=0.3, metadata=check(_positive))
+    leaf_deg: float = field(default=15.0, metadata=check(_positive))
+    leaf_reach_m: float = field(default=1.3, metadata=check(_positive))
+    leaf_thickness_m: float = field(default=0.06, metadata=check(_positive))
+    leaf_side_m: float = field(default=0.04, metadata=check(_non_negative))
+    # beams crossing the wall's line this far inside a jamb must pass free (else the jamb
+    # is the edge of a shadow, and the wall may go on behind what casts it)
+    shadow_m: float = field(default=0.15, metadata=check(_positive))
+    # sightings this near one another are one doorway (in a scan, and fused over scans)
+    join_m: float = field(default=0.3, metadata=check(_positive))
+    distinct_m: float = field(default=0.2, metadata=check(_positive))
+
+    def __post_init__(self) -> None:
+        if self.min_width_m > self.max_width_m:
+            raise ConfigError("min_width_m: must not exceed max_width_m")
+
+
+@dataclass
 class ControllerConfig:
     """The path-tracking controller."""
 
@@ -360,6 +414,7 @@ class ControllerConfig:
     smooth_zone_m: float = field(default=0.3, metadata=check(_non_negative))
     smooth_decel: float = field(default=0.3, metadata=check(_positive))
     mpc: MPCConfig = field(default_factory=MPCConfig)
+    door_scan: DoorScanConfig = field(default_factory=DoorScanConfig)
 
 
 @dataclass

@@ -28,26 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-BIN_DEG = 0.25  # azimuth bin of the planar scan (a VLP-16 turns 0.2 deg per return)
-BAND_M = 0.5  # the height band around the sensor kept for walls and jambs
-ABD_LAMBDA_DEG = 10.0  # the breakpoint detector's worst incidence angle on a surface
-RANGE_SIGMA_M = 0.01  # range noise (the detector adds three of it)
-SPLIT_M = 0.03  # a point this far from the chord splits a stretch (Iterative End-Point Fit)
-MIN_POINTS = 5  # fewest returns in a stretch of wall
-MIN_LENGTH_M = 0.15  # shortest stretch of wall
-ON_LINE_M = 0.04  # a return this near the wall's line is on it
-PARALLEL_DEG = 8.0  # the two stretches of one wall differ in direction by at most this
-JAMB_M = 0.1  # returns this near a jamb (its corner, the reveal behind it) are the jamb's
-REVEAL_M = 0.02  # a reveal's returns lie this near its jamb's line through the wall
-STEP_M = 0.06  # returns of one wall face are closer together than this
-MAX_DEPTH_M = 0.5  # the thickest wall a reveal is looked for in
-LEAF_MIN_M = 0.3  # a hinged leaf standing open shows at least this much of its face
-LEAF_DEG = 15.0  # and stands within this of the wall's normal
-LEAF_REACH_M = 1.3  # its nearer end at most this far from the wall's line (the widest
-# leaf's tip: the part by the hinge may be hidden or seen too edge-on to make a stretch)
-LEAF_THICKNESS_M = 0.06  # returns this near its face along the wall are the leaf's
-LEAF_SIDE_M = 0.04  # a leaf's thickness, taken when only its outer face shows
-SHADOW_M = 0.15  # beams crossing the wall's line this far inside a jamb must pass free
+from shared.config import DoorScanConfig
+
+DEFAULTS = DoorScanConfig()  # every constant here is a key of controller.door_scan
 
 
 @dataclass(frozen=True)
@@ -89,7 +72,9 @@ class Doorway:
         return self.centre if self.depth is None else self.centre + self.normal * self.depth / 2
 
 
-def planar_scan(points: np.ndarray, band_m: float = BAND_M, bin_deg: float = BIN_DEG) -> np.ndarray:
+def planar_scan(
+    points: np.ndarray, band_m: float = DEFAULTS.band_m, bin_deg: float = DEFAULTS.bin_deg
+) -> np.ndarray:
     """(M, 2) returns ordered by azimuth: the nearest per ``bin_deg`` bin of the points
     (N, 2 or 3; sensor frame) within ``band_m`` of the sensor's height."""
     pts = np.asarray(points, dtype=float)
@@ -110,23 +95,23 @@ def planar_scan(points: np.ndarray, band_m: float = BAND_M, bin_deg: float = BIN
     return xy[order[first]]
 
 
-def _breaks(xy: np.ndarray, bin_deg: float) -> list[np.ndarray]:
+def _breaks(xy: np.ndarray, cfg: DoorScanConfig) -> list[np.ndarray]:
     """Adaptive Breakpoint Detector: runs of returns with no jump a beam cannot explain."""
     if len(xy) < 2:
         return [xy] if len(xy) else []
     r = np.hypot(xy[:, 0], xy[:, 1])
     dphi = np.abs(np.diff(np.unwrap(np.arctan2(xy[:, 1], xy[:, 0]))))
-    lam = math.radians(ABD_LAMBDA_DEG)
-    dphi = np.clip(dphi, math.radians(bin_deg) * 0.5, lam * 0.9)
-    d_max = r[:-1] * np.sin(dphi) / np.sin(lam - dphi) + 3 * RANGE_SIGMA_M
+    lam = math.radians(cfg.breakpoint_angle_deg)
+    dphi = np.clip(dphi, math.radians(cfg.bin_deg) * 0.5, lam * 0.9)
+    d_max = r[:-1] * np.sin(dphi) / np.sin(lam - dphi) + 3 * cfg.range_sigma_m
     jump = np.linalg.norm(np.diff(xy, axis=0), axis=1) > d_max
     cuts = np.flatnonzero(jump) + 1
     return [p for p in np.split(xy, cuts) if len(p)]
 
 
-def _split(xy: np.ndarray) -> list[np.ndarray]:
+def _split(xy: np.ndarray, split_m: float) -> list[np.ndarray]:
     """Iterative End-Point Fit: split at the return furthest from the chord while it is
-    further than ``SPLIT_M``."""
+    further than ``split_m``."""
     if len(xy) < 3:
         return [xy]
     a, b = xy[0], xy[-1]
@@ -137,9 +122,9 @@ def _split(xy: np.ndarray) -> list[np.ndarray]:
     else:
         d = np.abs(chord[0] * (xy[:, 1] - a[1]) - chord[1] * (xy[:, 0] - a[0])) / n
     i = int(np.argmax(d))
-    if d[i] <= SPLIT_M or i in (0, len(xy) - 1):
+    if d[i] <= split_m or i in (0, len(xy) - 1):
         return [xy]
-    return _split(xy[: i + 1]) + _split(xy[i:])
+    return _split(xy[: i + 1], split_m) + _split(xy[i:], split_m)
 
 
 def _fit(xy: np.ndarray) -> Stretch:
@@ -158,43 +143,38 @@ def _fit(xy: np.ndarray) -> Stretch:
     return Stretch(a, b, direction, normal, float(np.sqrt(np.mean(off**2))), len(xy))
 
 
-def segment(scan_xy: np.ndarray, bin_deg: float = BIN_DEG) -> list[Stretch]:
+def segment(scan_xy: np.ndarray, cfg: DoorScanConfig = DEFAULTS) -> list[Stretch]:
     """The straight stretches of a planar scan (ordered by azimuth) long enough for walls."""
     out = []
-    for run in _breaks(scan_xy, bin_deg):
-        for piece in _split(run):
-            if len(piece) >= MIN_POINTS:
+    for run in _breaks(scan_xy, cfg):
+        for piece in _split(run, cfg.split_m):
+            if len(piece) >= cfg.min_points:
                 s = _fit(piece)
-                if s.length >= MIN_LENGTH_M:
+                if s.length >= cfg.min_length_m:
                     out.append(s)
     return out
 
 
-def find_doorways(
-    points: np.ndarray,
-    min_width_m: float = 0.6,
-    max_width_m: float = 1.6,
-    band_m: float = BAND_M,
-) -> list[Doorway]:
+def find_doorways(points: np.ndarray, cfg: DoorScanConfig = DEFAULTS) -> list[Doorway]:
     """Every doorway in one scan (N, 2 or 3 points, sensor frame), nearest first: between
     two stretches of one wall, or between a stretch of wall and the face of a hinged leaf
     standing open towards the sensor (the wall on the leaf's far side hidden behind it)."""
-    scan = planar_scan(points, band_m)
-    stretches = segment(scan)
+    scan = planar_scan(points, cfg.band_m, cfg.bin_deg)
+    stretches = segment(scan, cfg)
     found: list[Doorway] = []
-    for s, lo, hi in _gaps(stretches):
-        door = _doorway(scan, stretches, s, lo, hi, min_width_m, max_width_m)
+    for s, lo, hi in _gaps(stretches, cfg):
+        door = _doorway(scan, stretches, s, lo, hi, cfg)
         if door is not None:
             found.append(door)
     found.sort(key=lambda w: float(np.linalg.norm(w.centre)))
-    return _distinct(found)
+    return _distinct(found, cfg.distinct_m)
 
 
-def _gaps(stretches: list[Stretch]) -> list[tuple[Stretch, float, float]]:
+def _gaps(stretches: list[Stretch], cfg: DoorScanConfig) -> list[tuple[Stretch, float, float]]:
     """Candidate gaps (the wall's stretch, the gap's ends along it from its end ``a``):
     two stretches on one line, and a stretch of wall beside a leaf's face."""
     gaps = []
-    cos_par = math.cos(math.radians(PARALLEL_DEG))
+    cos_par = math.cos(math.radians(cfg.parallel_deg))
     for i, first in enumerate(stretches):
         for second in stretches[i + 1 :]:
             if abs(float(np.dot(first.direction, second.direction))) < cos_par:
@@ -211,12 +191,12 @@ def _gaps(stretches: list[Stretch]) -> list[tuple[Stretch, float, float]]:
                 (lo, k), hi = t_ends[1], s_ends[0]
             else:
                 continue  # overlapping: one wall, no gap
-            if abs(float(np.dot((t.a, t.b)[k] - s.a, s.normal))) > ON_LINE_M:
+            if abs(float(np.dot((t.a, t.b)[k] - s.a, s.normal))) > cfg.on_line_m:
                 continue
             gaps.append((s, lo, hi))
     for s in stretches:  # a leaf's face as the far jamb
         ends = sorted(float(np.dot(p - s.a, s.direction)) for p in (s.a, s.b))
-        for at in _leaf_faces(stretches, s):
+        for at in _leaf_faces(stretches, s, cfg):
             if at > ends[1]:
                 gaps.append((s, ends[1], at))
             elif at < ends[0]:
@@ -230,76 +210,79 @@ def _doorway(
     s: Stretch,
     lo: float,
     hi: float,
-    min_width_m: float,
-    max_width_m: float,
+    cfg: DoorScanConfig,
 ) -> Doorway | None:
     """The doorway in wall ``s`` between ``lo`` and ``hi`` (along it from its end ``a``),
     if the returns show one: jambs where the wall's returns end (or a leaf's face), no
     return on the wall's line between them, beams through the gap, no jamb at the edge of
     a shadow (the wall may go on behind what casts it)."""
-    if not min_width_m <= hi - lo <= max_width_m:
+    if not cfg.min_width_m <= hi - lo <= cfg.max_width_m:
         return None
     d = s.direction
     along = (scan - s.a) @ d
     off = (scan - s.a) @ s.normal
-    on_line = np.abs(off) < ON_LINE_M
+    on_line = np.abs(off) < cfg.on_line_m
     # the jambs: follow the wall's returns from each end towards the other while they are
     # close together (a fit ends short of a corner where the reveal bends away); a closed
     # leaf flush with the wall closes the gap
-    wall = np.sort(along[on_line & (along > lo - JAMB_M) & (along < hi + JAMB_M)])
-    lo, hi = _follow(wall, lo, +1), _follow(wall, hi, -1)
+    wall = np.sort(along[on_line & (along > lo - cfg.jamb_m) & (along < hi + cfg.jamb_m)])
+    lo, hi = _follow(wall, lo, +1, cfg.step_m), _follow(wall, hi, -1, cfg.step_m)
     # a hinged leaf swung open towards the sensor stands across the wall's line at its
     # hinge jamb and hides the wall behind it: its face is that side's jamb
-    leaf = _leaf_face(stretches, s, lo, hi)
+    leaf = _leaf_face(stretches, s, lo, hi, cfg)
     near_leaf = np.zeros(len(scan), dtype=bool)
     if leaf is not None:
-        near_leaf = np.abs(along - leaf) < LEAF_THICKNESS_M
+        near_leaf = np.abs(along - leaf) < cfg.leaf_thickness_m
         sensor = float(np.dot(-s.a, d))  # the sensor's place along the wall
         if leaf - lo < hi - leaf:  # seen from the hinge's side, the face is the outer one
-            lo = leaf = leaf + (LEAF_SIDE_M if sensor < leaf else 0.0)
+            lo = leaf = leaf + (cfg.leaf_side_m if sensor < leaf else 0.0)
         else:
-            hi = leaf = leaf - (LEAF_SIDE_M if sensor > leaf else 0.0)
+            hi = leaf = leaf - (cfg.leaf_side_m if sensor > leaf else 0.0)
     width = hi - lo
-    if not min_width_m <= width <= max_width_m:
+    if not cfg.min_width_m <= width <= cfg.max_width_m:
         return None
-    if np.any(on_line & ~near_leaf & (along > lo + REVEAL_M) & (along < hi - REVEAL_M)):
+    gap = (along > lo + cfg.reveal_m) & (along < hi - cfg.reveal_m)
+    if np.any(on_line & ~near_leaf & gap):
         return None  # something on the wall's line in the gap: a leaf, a post
     c = float(np.dot(s.normal, s.a))
     ends = [(e, side) for e, side in ((lo, +1), (hi, -1)) if leaf is None or e != leaf]
-    if any(_hidden(scan, off, s, c, e, side) for e, side in ends):
+    if any(_hidden(scan, off, s, c, e, side, cfg) for e, side in ends):
         return None  # a jamb at the edge of a shadow: the wall may go on behind it
-    beyond = off < -ON_LINE_M
+    beyond = off < -cfg.on_line_m
     if not np.any(beyond):
         return None
     # where the beams to returns beyond the wall cross its line (the sensor is at the
     # origin): some must cross in the gap, else it is a gap in the returns
     cross = scan[beyond] * (c / (scan[beyond] @ s.normal))[:, None]
     through = (cross - s.a) @ d
-    if not np.any((through > lo + REVEAL_M) & (through < hi - REVEAL_M)):
+    if not np.any((through > lo + cfg.reveal_m) & (through < hi - cfg.reveal_m)):
         return None
     # open: most beams through the gap's middle half reach past a wall's thickness (a
     # closed leaf stands in the frame, a few cm behind the face; an open hinged one
     # stands at a jamb)
     middle = (through > lo + width / 4) & (through < hi - width / 4)
-    is_open = bool(np.mean(-off[beyond][middle] > MAX_DEPTH_M) >= 0.5) if middle.any() else True
+    deep = -off[beyond][middle] > cfg.max_depth_m
+    is_open = bool(np.mean(deep) >= 0.5) if middle.any() else True
     left, right = s.a + lo * d, s.a + hi * d
-    depth = _reveal_depth(along, off, lo, hi)
+    depth = _reveal_depth(along, off, lo, hi, cfg)
     return Doorway(left, right, (left + right) / 2, width, d.copy(), -s.normal, depth, is_open)
 
 
-def _leaves(stretches: list[Stretch], wall: Stretch, reach_m: float) -> list[Stretch]:
+def _leaves(
+    stretches: list[Stretch], wall: Stretch, reach_m: float, cfg: DoorScanConfig
+) -> list[Stretch]:
     """Stretches that may be the face of a leaf standing across ``wall``'s line: at least
-    ``LEAF_MIN_M`` long, within ``LEAF_DEG`` of its normal, out on the sensor's side, the
+    ``leaf_min_m`` long, within ``leaf_deg`` of its normal, out on the sensor's side, the
     nearer end within ``reach_m`` of the line."""
     n = wall.normal
     found = []
     for u in stretches:
-        if u is wall or u.length < LEAF_MIN_M:
+        if u is wall or u.length < cfg.leaf_min_m:
             continue
-        if abs(float(np.dot(u.direction, n))) < math.cos(math.radians(LEAF_DEG)):
+        if abs(float(np.dot(u.direction, n))) < math.cos(math.radians(cfg.leaf_deg)):
             continue
         offs = [float(np.dot(p - wall.a, n)) for p in (u.a, u.b)]
-        if min(offs) <= reach_m and max(offs) >= LEAF_MIN_M:
+        if min(offs) <= reach_m and max(offs) >= cfg.leaf_min_m:
             found.append(u)
     return found
 
@@ -309,31 +292,39 @@ def _along(wall: Stretch, u: Stretch) -> float:
     return float(np.dot((u.a + u.b) / 2 - wall.a, wall.direction))
 
 
-def _leaf_faces(stretches: list[Stretch], wall: Stretch) -> list[float]:
+def _leaf_faces(stretches: list[Stretch], wall: Stretch, cfg: DoorScanConfig) -> list[float]:
     """Along ``wall``, the faces of every leaf standing across its line and reaching it
     (the hinge; a reveal in line with the face may carry it on through the wall)."""
-    return [_along(wall, u) for u in _leaves(stretches, wall, ON_LINE_M)]
+    return [_along(wall, u) for u in _leaves(stretches, wall, cfg.on_line_m, cfg)]
 
 
-def _leaf_face(stretches: list[Stretch], wall: Stretch, lo: float, hi: float) -> float | None:
+def _leaf_face(
+    stretches: list[Stretch], wall: Stretch, lo: float, hi: float, cfg: DoorScanConfig
+) -> float | None:
     """Along ``wall``, the face of the longest leaf standing across it in the gap [lo, hi],
-    its nearer end within ``LEAF_REACH_M`` of the line (the part by the hinge may be hidden
+    its nearer end within ``leaf_reach_m`` of the line (the part by the hinge may be hidden
     or seen too edge-on to make a stretch); None: no leaf."""
     inside = [
         u
-        for u in _leaves(stretches, wall, LEAF_REACH_M)
-        if lo - JAMB_M < _along(wall, u) < hi + JAMB_M
+        for u in _leaves(stretches, wall, cfg.leaf_reach_m, cfg)
+        if lo - cfg.jamb_m < _along(wall, u) < hi + cfg.jamb_m
     ]
     return _along(wall, max(inside, key=lambda u: u.length)) if inside else None
 
 
 def _hidden(
-    scan: np.ndarray, off: np.ndarray, wall: Stretch, c: float, end: float, inward: int
+    scan: np.ndarray,
+    off: np.ndarray,
+    wall: Stretch,
+    c: float,
+    end: float,
+    inward: int,
+    cfg: DoorScanConfig,
 ) -> bool:
     """True if beams that cross ``wall``'s line just inside the gap from ``end`` (towards
     ``inward``) end on something nearer than the wall: the end is the edge of a shadow.
     ``off``: each return's distance from the wall's line, towards the sensor."""
-    front = scan[off > ON_LINE_M]
+    front = scan[off > cfg.on_line_m]
     if len(front) == 0:
         return False
     dots = front @ wall.normal
@@ -342,35 +333,37 @@ def _hidden(
     cross = front[ok] * scale[ok][:, None]
     at = (cross - wall.a) @ wall.direction
     inside = (at - end) * inward
-    return bool(np.any((inside > REVEAL_M) & (inside < SHADOW_M)))
+    return bool(np.any((inside > cfg.reveal_m) & (inside < cfg.shadow_m)))
 
 
-def _follow(wall: np.ndarray, end: float, step: int) -> float:
+def _follow(wall: np.ndarray, end: float, step: int, step_m: float) -> float:
     """From ``end``, along sorted positions ``wall`` in direction ``step`` (+1 up, -1
-    down), while consecutive returns are less than ``STEP_M`` apart."""
+    down), while consecutive returns are less than ``step_m`` apart."""
     values = wall if step > 0 else wall[::-1]
     for v in values:
         if (v - end) * step <= 0:
             continue
-        if (v - end) * step > STEP_M:
+        if (v - end) * step > step_m:
             break
         end = float(v)
     return end
 
 
-def _reveal_depth(along: np.ndarray, off: np.ndarray, lo: float, hi: float) -> float | None:
+def _reveal_depth(
+    along: np.ndarray, off: np.ndarray, lo: float, hi: float, cfg: DoorScanConfig
+) -> float | None:
     """The wall's thickness from a jamb's reveal: the deepest return beyond the face
-    within ``REVEAL_M`` of a jamb's line (None if no reveal shows)."""
-    at_jamb = (np.abs(along - lo) < REVEAL_M) | (np.abs(along - hi) < REVEAL_M)
-    depth = -off[at_jamb & (off < -ON_LINE_M) & (off > -MAX_DEPTH_M)]
-    return float(depth.max()) if len(depth) >= MIN_POINTS else None
+    within ``reveal_m`` of a jamb's line (None if no reveal shows)."""
+    at_jamb = (np.abs(along - lo) < cfg.reveal_m) | (np.abs(along - hi) < cfg.reveal_m)
+    depth = -off[at_jamb & (off < -cfg.on_line_m) & (off > -cfg.max_depth_m)]
+    return float(depth.max()) if len(depth) >= cfg.min_points else None
 
 
-def _distinct(doorways: list[Doorway]) -> list[Doorway]:
+def _distinct(doorways: list[Doorway], distinct_m: float) -> list[Doorway]:
     """One sighting per doorway: a wall seen as several stretches gives the same gap twice."""
     out: list[Doorway] = []
     for w in doorways:
-        if all(np.linalg.norm(w.centre - o.centre) > 0.2 for o in out):
+        if all(np.linalg.norm(w.centre - o.centre) > distinct_m for o in out):
             out.append(w)
     return out
 
@@ -401,7 +394,7 @@ class DoorTracker:
     its uncertainty the spread of their centres over the square root of their number.
     """
 
-    def __init__(self, join_m: float = 0.3) -> None:
+    def __init__(self, join_m: float = DEFAULTS.join_m) -> None:
         self.join_m = join_m
         self._tracks: list[dict] = []
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.controller.door_bezier import door_curve
+from shared.config import DoorScanConfig
 from shared.door_scan import DoorTracker, find_doorways
 
 RUNNING, THROUGH, FALLBACK = "running", "through", "fallback"
@@ -60,11 +61,13 @@ class SmoothPass:
         door_centre: tuple[float, float],
         door_normal: float,
         settings: PassSettings | None = None,
+        scan: DoorScanConfig | None = None,
     ) -> None:
         self.settings = settings or PassSettings()
+        self.scan_cfg = scan or DoorScanConfig()
         self.mapped = np.array(door_centre, dtype=float)
         self.normal = np.array([math.cos(door_normal), math.sin(door_normal)])
-        self.tracker = DoorTracker()
+        self.tracker = DoorTracker(self.scan_cfg.join_m)
         self.centre = self.mapped.copy()  # the mapped door until the scan shows it
         self.width = self.settings.door_width  # as the scan shows it, once it does
         self.seen = 0  # sightings fused into the estimate used
@@ -72,7 +75,7 @@ class SmoothPass:
     def _update_door(self, pose: tuple[float, float, float], scan: np.ndarray | None) -> None:
         if scan is None or len(scan) == 0:
             return
-        self.tracker.add(find_doorways(scan), pose)
+        self.tracker.add(find_doorways(scan, self.scan_cfg), pose)
         near = [
             e
             for e in self.tracker.estimates()

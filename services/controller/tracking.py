@@ -155,7 +155,7 @@ class Tracker:
                 zone_m=cfg.smooth_zone_m,
                 decel=cfg.smooth_decel,
             )
-            self.smooth = SmoothPass((cx, cy), heading, settings)
+            self.smooth = SmoothPass((cx, cy), heading, settings, cfg.door_scan)
             self._precise = True
         if dock_heading is not None and len(waypoints) > 0:
             cap = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else None

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from shared.config import ConfigError, DoorScanConfig, FleetConfig, from_dict
 from shared.door_scan import find_doorways, planar_scan, segment
 
 
@@ -45,3 +47,17 @@ def test_a_corner_is_two_stretches_and_a_wall_with_a_gap_is_a_doorway() -> None:
     closed = find_doorways(_cast([*walls, ((2.05, 0.0), (2.05, 0.9))]))
     assert len(closed) == 1 and not closed[0].open
     assert find_doorways(_cast([((2, -3), (2, 0.0)), ((2, 2.0), (2, 3)), ((5, -3), (5, 3))])) == []
+
+
+def test_the_finder_reads_its_config() -> None:
+    """controller.door_scan: a 0.9 m gap is no doorway to a finder that wants 1.0 m and
+    more, and a 2 m gap is one to a finder that allows 2.2 m; bad ranges name the key."""
+    walls = [((2, -3), (2, 0.0)), ((2, 0.9), (2, 3)), ((5, -3), (5, 3))]
+    assert find_doorways(_cast(walls), DoorScanConfig(min_width_m=1.0)) == []
+    wide = [((2, -3), (2, 0.0)), ((2, 2.0), (2, 3)), ((5, -3), (5, 3))]
+    (door,) = find_doorways(_cast(wide), DoorScanConfig(max_width_m=2.2))
+    assert abs(door.width - 2.0) < 0.02
+    with pytest.raises(ConfigError, match="min_width_m"):
+        from_dict(FleetConfig, {"controller": {"door_scan": {"min_width_m": 2.0}}})
+    with pytest.raises(ConfigError, match="controller.door_scan.split_m"):
+        from_dict(FleetConfig, {"controller": {"door_scan": {"split_m": -1}}})
