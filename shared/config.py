@@ -30,6 +30,10 @@ def _non_negative(v: float) -> str | None:
     return None if v >= 0 else "must be >= 0"
 
 
+def _at_least(n: int):
+    return lambda v: None if v >= n else f"must be >= {n}"
+
+
 def check(rule):
     """Field metadata attaching a validation rule (returns an error text or None)."""
     return {"check": rule}
@@ -227,7 +231,7 @@ class MPCConfig:
     # sampling: candidates per cycle, horizon, model step (s; the warm start is shifted by
     # the real loop period), noise (m/s, rad/s; wider in w on a cold start), its AR(1)
     # correlation from one step to the next
-    samples: int = field(default=1000, metadata=check(lambda v: None if v >= 2 else "must be >= 2"))
+    samples: int = field(default=1000, metadata=check(_at_least(2)))
     steps: int = field(default=21, metadata=check(_positive))
     dt: float = field(default=0.2, metadata=check(_positive))
     sigma_v: float = field(default=0.10, metadata=check(_non_negative))
@@ -310,7 +314,7 @@ class DoorScanConfig:
     # Iterative End-Point Fit splits a stretch at a return this far from its chord; a
     # stretch of wall has at least min_points returns and min_length_m
     split_m: float = field(default=0.03, metadata=check(_positive))
-    min_points: int = field(default=5, metadata=check(lambda v: None if v >= 2 else "must be >= 2"))
+    min_points: int = field(default=5, metadata=check(_at_least(2)))
     min_length_m: float = field(default=0.15, metadata=check(_positive))
     # a doorway's free width lies in [min_width_m, max_width_m]
     min_width_m: float = field(default=0.6, metadata=check(_positive))

@@ -83,6 +83,12 @@ def moves_close_in(
     return bool(_moves_close_in(pts, float(front), float(rear), float(width), float(margin), trig))
 
 
+def warm_up() -> None:
+    """Compile (or load) the sweep kernel now, not in the first control cycle that turns:
+    in lockstep the compile would hold a tick."""
+    moves_close_in(np.zeros((1, 2)), 0.1, 0.1, 0.1, 0.0, [(0.0, 0.0, 0.1)])
+
+
 @numba.njit(cache=True, inline="always")
 def _rect_gap(x: float, y: float, front: float, rear: float, half: float) -> float:
     dx = max(max(-rear - x, x - front), 0.0)

@@ -31,6 +31,8 @@ import numpy as np
 from shared.config import ControllerConfig, RobotConfig
 from shared.geometry import arc_poses, moves_close_in, turn_closes_in
 
+GUARD_SLACK_M = 0.05  # guard_points keeps this much beyond the farthest a check reaches
+
 
 def stop_zone_hit(
     points: np.ndarray,
@@ -128,7 +130,7 @@ def guard_points(
         stop_zone_length(top, robot, cfg)
         + float(np.hypot(max(fp.front, fp.rear), fp.width / 2))
         + margin
-        + 0.05
+        + GUARD_SLACK_M
     )
     keep = (np.abs(points[:, 2]) < band_m) & (np.hypot(points[:, 0], points[:, 1]) < reach)
     return points[keep]

@@ -23,6 +23,7 @@ from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import SamplingMPC
 from services.controller.pure_pursuit import PathFollower
 from services.controller.smooth_pass import FALLBACK, THROUGH, PassSettings, SmoothPass
+from shared import geometry
 from shared.config import ConfigError, ControllerConfig, RobotConfig
 from shared.site import Site
 
@@ -72,6 +73,7 @@ class Tracker:
         self.smooth: SmoothPass | None = None
         self.stall = StallWatch(cfg.stall_s, cfg.stall_progress_m)
         manoeuvre.warm_up()
+        geometry.warm_up()
         if cfg.mode == "mpc":
             try:
                 self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m)
