@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import math
 
+import py_trees
 from py_trees.common import Status
 
+from behaviours.door_fix import DoorFix, DoorSightings
 from behaviours.fleet import FleetBehaviour, OpenInScans
 from behaviours.motion import dock_path
 from shared.messages import DoorMode, Path, Phase
@@ -59,7 +61,7 @@ class WaitForDoorOpen(FleetBehaviour):
     alone decides; it must then have a ``centre``). CLOSED, MOVING, OFFLINE, UNKNOWN, no
     report, and a LiDAR "unknown" are all "not open". The timeout above it bounds the
     wait. ``stop_on_start`` (default) stops the chair first; idle motion running beside
-    it sets it False.
+    it sets it False. ``fix``: the centre is moved onto the door the scans showed.
     """
 
     phase = Phase.VERIFY
@@ -72,6 +74,7 @@ class WaitForDoorOpen(FleetBehaviour):
         stop_on_start: bool = True,
         width_m: float = 0.0,
         building: bool = True,
+        fix: DoorFix | None = None,
     ) -> None:
         super().__init__(f"WaitForDoorOpen {door_id}")
         self.building = building
@@ -80,6 +83,12 @@ class WaitForDoorOpen(FleetBehaviour):
         self.width_m = width_m
         self.stop_on_start = stop_on_start
         self.lidar = OpenInScans(scans)
+        self.fix = fix
+
+    def _centre(self) -> tuple[float, float] | None:
+        if self.centre is None or self.fix is None:
+            return self.centre
+        return self.fix.at(*self.centre)
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
@@ -89,8 +98,9 @@ class WaitForDoorOpen(FleetBehaviour):
 
     def update(self) -> Status:
         mode = self.fleet.door_mode(self.door_id) if self.building else DoorMode.OPEN
-        lidar_ok = self.centre is None or self.lidar.update(
-            *self.fleet.lidar_door_state(*self.centre, self.width_m)
+        centre = self._centre()
+        lidar_ok = centre is None or self.lidar.update(
+            *self.fleet.lidar_door_state(*centre, self.width_m)
         )
         if mode == DoorMode.OPEN and lidar_ok:
             self.feedback_message = "open"
@@ -99,6 +109,85 @@ class WaitForDoorOpen(FleetBehaviour):
         seen = f", {self.lidar}" if self.centre else ""
         self.feedback_message = f"door {names.get(mode, 'not reported')}{seen}, waiting"
         return Status.RUNNING
+
+
+class LocateDoor(FleetBehaviour):
+    """Find the door in the scans and set ``fix`` to its shift from the map, along the wall.
+
+    Watches ``scans`` new scans (or ``timeout_s`` of fleet time, whichever ends first) for
+    an open doorway within ``reach_m`` of the mapped centre, its wall parallel to the
+    mapped one and at least ``min_width_m`` wide. With a sighting in more than half of
+    them, ``fix`` is their median offset when that is at least ``min_shift_m`` (less, the
+    pass's own tracking takes it up), else zero. Always SUCCESS: a door not seen is
+    passed where the map puts it, as before. Reports what it found as an event.
+    """
+
+    phase = Phase.VERIFY
+
+    def __init__(
+        self,
+        door_id: str,
+        fix: DoorFix,
+        centre: tuple[float, float],
+        heading: float,
+        reach_m: float = 0.3,
+        min_width_m: float = 0.0,
+        scans: int = 5,
+        min_shift_m: float = 0.03,
+        timeout_s: float = 2.0,
+    ) -> None:
+        super().__init__(f"Locate {door_id}")
+        self.door_id = door_id
+        self.fix = fix
+        self.centre, self.heading = centre, heading
+        self.reach_m, self.min_width_m = reach_m, min_width_m
+        self.scans, self.min_shift_m, self.timeout_s = scans, min_shift_m, timeout_s
+        self._seen = DoorSightings(centre, heading, reach_m, min_width_m)
+        self._count = 0
+        self._last = -1.0
+        self._started = 0.0
+
+    def initialise(self) -> None:
+        self.bb.phase = self.phase
+        self.fix.reset()
+        self._seen = DoorSightings(self.centre, self.heading, self.reach_m, self.min_width_m)
+        self._count, self._last, self._started = 0, -1.0, self.fleet.now()
+
+    def update(self) -> Status:
+        stamp, seen = self.fleet.doorways_seen()
+        if stamp > self._last:
+            self._last = stamp
+            self._count += 1
+            self._seen.add(seen)
+        if self._count < self.scans and self.fleet.now() - self._started < self.timeout_s:
+            self.feedback_message = f"{len(self._seen.offsets)} sightings in {self._count} scans"
+            return Status.RUNNING
+        shift = self._seen.shift(self._count // 2 + 1)
+        if shift is None:
+            self.feedback_message = (
+                f"not seen ({len(self._seen.offsets)} of {self._count} scans): as mapped"
+            )
+        elif math.hypot(*shift) < self.min_shift_m:
+            self.feedback_message = f"seen {math.hypot(*shift):.3f} m from the map: as mapped"
+        else:
+            self.fix.shift = shift
+            self.feedback_message = (
+                f"seen ({shift[0]:+.3f}, {shift[1]:+.3f}) m from the map: lining up on it"
+            )
+            self.fleet.event("door_located", f"{self.door_id}: {self.feedback_message}")
+        return Status.SUCCESS
+
+
+class DoorAsMapped(py_trees.behaviour.Behaviour):
+    """SUCCESS if ``fix`` leaves the door where the map has it (nothing to line up again),
+    else FAILURE."""
+
+    def __init__(self, door_id: str, fix: DoorFix) -> None:
+        super().__init__(f"{door_id} as mapped")
+        self.fix = fix
+
+    def update(self) -> Status:
+        return Status.SUCCESS if self.fix.shift == (0.0, 0.0) else Status.FAILURE
 
 
 class IdleMotion(FleetBehaviour):

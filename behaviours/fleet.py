@@ -73,6 +73,10 @@ class Fleet(Protocol):
         its leading edge ``lead_m`` ahead and the door plane, moving along ``direction``,
         through a door ``width_m`` wide (0: unknown); a jamb is not in the lane)."""
 
+    def doorways_seen(self) -> tuple[float, list[tuple[float, float, float, float]]]:
+        """(stamp of the latest scan, the open doorways it shows on the map: centre x, y in
+        the wall's plane, the wall's direction angle, free width)."""
+
     def room_to_turn(self, radius_m: float) -> bool:
         """True if the latest scan has nothing within ``radius_m`` of the pose point (the
         chair can turn on the spot without sweeping into anything)."""

@@ -45,12 +45,15 @@ import py_trees
 from py_trees.common import Access, Status
 
 from behaviours.door import (
+    DoorAsMapped,
     IdleMotion,
+    LocateDoor,
     ReleaseDoor,
     RequestDoor,
     SmoothDoorPass,
     WaitForDoorOpen,
 )
+from behaviours.door_fix import DoorFix
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import NS, FleetBehaviour
 from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
@@ -283,6 +286,7 @@ def _door_steps(
                         stop_on_start=False,
                         width_m=cp.width_m,
                         building=building,
+                        fix=fix if again else None,
                     ),
                     IdleMotion(
                         cp.id, cp.floor, (a.x, a.y, a.theta), nav.idle_speed, nav.idle_amplitude_m
@@ -291,7 +295,12 @@ def _door_steps(
             )
         else:
             inner = WaitForDoorOpen(
-                cp.id, centre, nav.door_scans, width_m=cp.width_m, building=building
+                cp.id,
+                centre,
+                nav.door_scans,
+                width_m=cp.width_m,
+                building=building,
+                fix=fix if again else None,
             )
         says = f"door {cp.id} did not open within {nav.door_timeout_s:g} s"
         return Timeout(
@@ -318,11 +327,15 @@ def _door_steps(
             overrun_m=nav.pass_overrun_m,
             door_width_m=cp.width_m,
             closed_fails=closed_fails,
+            fix=fix,
         )
         limit = _pass_timeout(cp.pass_distance_m, p.door_speed)
         return Timeout(f"Phase 3 {cp.id}{again}", drive, limit, clock, record)
 
+    fix = DoorFix() if nav.locate_door and cp.centre is not None and cp.width_m > 0 else None
     steps.append(wait())
+    if fix is not None:
+        steps.append(_line_up(cp, p, clock, record, fix))
     if rocking and building:
         # an automatic door that closes while the chair stands before it (its hold time ran
         # out at the end of a long correction) opens again only for motion: wait again,
@@ -352,6 +365,74 @@ def _door_steps(
         f"Door {cp.id}",
         memory=True,
         children=[Timeout(f"Smooth {cp.id}", smooth, limit, clock, record), stop_turn_go],
+    )
+
+
+def _line_up(cp, p: EntryParams, clock, record, fix: DoorFix) -> py_trees.behaviour.Behaviour:
+    """Once the door is seen open: find it in the scans (``fix``: its shift along the wall
+    from the map) and, where it is not as mapped, dock at the moved approach pose and face
+    the moved exit again."""
+    nav, a, e = p.nav, cp.approach, cp.exit
+    locate = LocateDoor(
+        cp.id,
+        fix,
+        (cp.centre.x, cp.centre.y),
+        a.theta,
+        nav.locate_reach_m,
+        2 * p.half_width_m,
+        nav.locate_scans,
+        nav.locate_min_shift_m,
+        nav.locate_timeout_s,
+    )
+    dock = DockAt(
+        f"Realign {cp.id}",
+        Phase.CORRECT,
+        cp.floor,
+        (a.x, a.y),
+        a.theta,
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        nav.heading_tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
+        keep_out=doorway(cp),
+        fix=fix,
+    )
+    turn = DockAt(
+        f"Turn again {cp.id}",
+        Phase.TURN,
+        cp.floor,
+        (a.x, a.y),
+        None,
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        nav.turn_tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
+        face=(e.x, e.y),
+        keep_out=doorway(cp),
+        fix=fix,
+    )
+    limit = nav.correction_timeout_s
+    again = py_trees.composites.Sequence(
+        f"Realign {cp.id} on the door seen",
+        memory=True,
+        children=[
+            Timeout(f"Phase 0 again {cp.id}", dock, limit, clock, record),
+            Timeout(f"Phase 1 again {cp.id}", turn, limit, clock, record),
+        ],
+    )
+    return py_trees.composites.Sequence(
+        f"Line up {cp.id}",
+        memory=True,
+        children=[
+            locate,
+            py_trees.composites.Selector(
+                f"{cp.id} as mapped or realign",
+                memory=True,
+                children=[DoorAsMapped(cp.id, fix), again],
+            ),
+        ],
     )
 
 

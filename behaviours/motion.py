@@ -12,6 +12,7 @@ import math
 import numpy as np
 from py_trees.common import Status
 
+from behaviours.door_fix import DoorFix
 from behaviours.fleet import FleetBehaviour
 from shared.geometry import angle_between
 from shared.messages import DoorMode, Path, Phase
@@ -137,6 +138,8 @@ class DockAt(FleetBehaviour):
     seed's Phase 1 turn towards the exit pose, on the spot. The final errors are its
     feedback (the mission report measures them on the ground truth). ``keep_out``:
     segments (N, 4) its manoeuvres count as walls (the doorway of the door ahead).
+    ``fix``: ``target``, ``face`` and ``keep_out`` are moved onto the door the scans showed
+    (:class:`~behaviours.door_fix.DoorFix`), as it stands when the behaviour starts.
     """
 
     def __init__(
@@ -153,9 +156,12 @@ class DockAt(FleetBehaviour):
         stall_s: float = 4.0,
         face: tuple[float, float] | None = None,
         keep_out: np.ndarray | None = None,
+        fix: DoorFix | None = None,
     ) -> None:
         super().__init__(name)
         self.keep_out = keep_out
+        self.fix = fix
+        self._keep_out = keep_out
         self.phase = phase
         self.floor = floor
         self.target, self.heading, self.face = target, heading, face
@@ -176,16 +182,23 @@ class DockAt(FleetBehaviour):
         self._tries = 0
         self._started = self.fleet.now()
         self._last_update = self._started
-        x, y = self.target
+        x, y = self._moved(self.target)
+        self._keep_out = self.keep_out
+        if self.fix is not None and self.keep_out is not None:
+            dx, dy = self.fix.shift
+            self._keep_out = np.asarray(self.keep_out, float) + [dx, dy, dx, dy]
         heading = self.heading
         if heading is None:  # turn on the spot towards ``face``
             est = self.fleet.pose()
             if est is not None:
                 x, y = est.pose.x, est.pose.y
-            fx, fy = self.face
+            fx, fy = self._moved(self.face)
             heading = math.atan2(fy - y, fx - x)
         self._goal = (x, y, heading)
         self._send()
+
+    def _moved(self, xy: tuple[float, float]) -> tuple[float, float]:
+        return xy if self.fix is None else self.fix.at(*xy)
 
     def _send(self) -> None:
         self._tries += 1
@@ -193,7 +206,7 @@ class DockAt(FleetBehaviour):
         self._path_id = f"{self.name} #{self._tries}"
         x, y, h = self._goal
         self.fleet.send_path(
-            dock_path(self._path_id, self.floor, x, y, h, self.speed, self.keep_out)
+            dock_path(self._path_id, self.floor, x, y, h, self.speed, self._keep_out)
         )
 
     def heading_off_rad(self) -> float:
@@ -276,6 +289,8 @@ class DriveThrough(FollowPath):
     (FAILURE) instead: an automatic door that closed while the chair stood still before it
     (its motion sensor saw nothing for its hold time) opens again only for motion, so
     holding still would wait for ever; the door steps then wait for it again, rocking.
+    ``fix``: the pass (its start, end and door) is moved onto the door the scans showed
+    (:class:`~behaviours.door_fix.DoorFix`), as it stands when the pass starts.
     """
 
     def __init__(
@@ -295,25 +310,21 @@ class DriveThrough(FollowPath):
         tolerance_m: float = 0.03,
         door_width_m: float = 0.0,
         closed_fails: bool = False,
+        fix: DoorFix | None = None,
     ) -> None:
+        self._mapped = (start, end, door_xy)
+        self.speed, self.overrun_m, self.floor = speed, overrun_m, floor
         a, b = np.asarray(start, float), np.asarray(end, float)
-        length = float(np.linalg.norm(b - a))
-        self.direction = math.atan2(b[1] - a[1], b[0] - a[0])
-        u = (b - a) / max(length, 1e-9)
-        far = b + u * overrun_m
-        n = max(2, int(np.ceil((length + overrun_m) / 0.25)) + 1)
-        v = np.full(n, speed)
-        v[-1] = 0.0
-        path = Path(0.0, path_id, floor, np.linspace(a, far, n), v, reverse=reverse, precise=True)
-        super().__init__(path, name, phase)
+        super().__init__(self._pass_path(path_id, a, b, reverse), name, phase)
         self.end = (float(b[0]), float(b[1]))
         self.door_xy = door_xy
+        self.fix = fix
         self.door_width_m = door_width_m
         self.lead_m = lead_m
         self.door_id = door_id
         self.reverse = reverse
         self.tolerance_m = tolerance_m
-        self.required_m = length
+        self.required_m = float(np.linalg.norm(b - a))
         self.closed_fails = closed_fails
         self._to_plane: float | None = None  # from the front to the door plane at the start
         self.held_for = ""
@@ -322,7 +333,30 @@ class DriveThrough(FollowPath):
         self._last_scan = -1.0
         self._blocked = False
 
+    def _pass_path(self, path_id: str, a: np.ndarray, b: np.ndarray, reverse: bool) -> Path:
+        """The straight pass from ``a`` to ``overrun_m`` past ``b``; sets its direction."""
+        length = float(np.linalg.norm(b - a))
+        self.direction = math.atan2(b[1] - a[1], b[0] - a[0])
+        far = b + (b - a) / max(length, 1e-9) * self.overrun_m
+        n = max(2, int(np.ceil((length + self.overrun_m) / 0.25)) + 1)
+        v = np.full(n, self.speed)
+        v[-1] = 0.0
+        return Path(
+            0.0, path_id, self.floor, np.linspace(a, far, n), v, reverse=reverse, precise=True
+        )
+
+    def _move_onto_door(self) -> None:
+        """Aim the pass at the mapped poses moved by ``fix`` (no fix: as mapped)."""
+        start, end, door = self._mapped
+        if self.fix is None:
+            return
+        a, b = np.array(self.fix.at(*start)), np.array(self.fix.at(*end))
+        self.path = self._pass_path(self.path_id, a, b, self.reverse)
+        self.end = (float(b[0]), float(b[1]))
+        self.door_xy = None if door is None else self.fix.at(*door)
+
     def initialise(self) -> None:
+        self._move_onto_door()
         est = self.fleet.pose()
         self._to_plane = None
         if est is not None:  # the distance still to go, from where the chair stands

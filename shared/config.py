@@ -501,6 +501,16 @@ class NavigatorConfig:
     idle_speed: float = field(default=0.05, metadata=check(_positive))
     idle_amplitude_m: float = field(default=0.12, metadata=check(_positive))
     door_scans: int = field(default=3, metadata=check(_positive))
+    # stop-turn-go lines up on the door the scans show (a map or a pose a few cm off at an
+    # 0.80 m door stops the pass at a jamb): once the door is seen open, an open doorway
+    # within locate_reach_m of the mapped one, seen in most of locate_scans scans (or as
+    # many as come in locate_timeout_s), moves the second alignment and the pass by its
+    # offset along the wall when that is at least locate_min_shift_m
+    locate_door: bool = True
+    locate_reach_m: float = field(default=0.3, metadata=check(_positive))
+    locate_scans: int = field(default=5, metadata=check(_positive))
+    locate_min_shift_m: float = field(default=0.03, metadata=check(_non_negative))
+    locate_timeout_s: float = field(default=2.0, metadata=check(_positive))
     pass_overrun_m: float = field(default=0.2, metadata=check(_non_negative))
     door_check: DoorCheckConfig = field(default_factory=DoorCheckConfig)
 

@@ -14,7 +14,8 @@ import math
 import numpy as np
 
 from services.navigator.door_check import UNKNOWN, door_state_from_scan, lane_blocked
-from shared.config import DoorCheckConfig
+from shared.config import DoorCheckConfig, DoorScanConfig
+from shared.door_scan import find_doorways
 from shared.messages import (
     Clock,
     DoorMode,
@@ -54,6 +55,7 @@ class FleetState:
         source: str = "navigator",
         front_m: float = 0.76,
         rear_m: float = 0.35,
+        door_scan: DoorScanConfig | None = None,
     ) -> None:
         self.robot = robot
         self.door_check = door_check
@@ -70,6 +72,8 @@ class FleetState:
         self._odom: Odometry | None = None
         self._follow: FollowStatus | None = None
         self._scan: PointCloud | None = None
+        self.door_scan = door_scan or DoorScanConfig()  # the doorway finder's (shared.door_scan)
+        self._doorways: tuple[float, list[tuple[float, float, float, float]]] = (-1.0, [])
         self._doors: dict[str, int] = {}
         self._lifts: dict[str, LiftState] = {}
         self._closing: dict[str, tuple[str, float, float, float, float]] = {}
@@ -178,6 +182,29 @@ class FleetState:
             width_m,
         )
         return self._scan.stamp, seen
+
+    def doorways_seen(self) -> tuple[float, list[tuple[float, float, float, float]]]:
+        if self._scan is None or self._pose is None:
+            return -1.0, []
+        if self._scan.stamp != self._doorways[0]:
+            p = self._pose.pose
+            c, s = math.cos(p.theta), math.sin(p.theta)
+            seen = []
+            for w in find_doorways(self._scan.points, self.door_scan):
+                if not w.open:
+                    continue
+                x, y = (float(v) for v in w.plane_centre)
+                dx, dy = (float(v) for v in w.direction)
+                seen.append(
+                    (
+                        p.x + c * x - s * y,
+                        p.y + s * x + c * y,
+                        p.theta + math.atan2(dy, dx),
+                        w.width,
+                    )
+                )
+            self._doorways = (self._scan.stamp, seen)
+        return self._doorways
 
     def lane_blocked(
         self, door_xy: tuple[float, float], direction: float, lead_m: float, width_m: float

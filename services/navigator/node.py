@@ -53,6 +53,7 @@ class ZenohFleet(FleetState):
             source=NAME,
             front_m=cfg.robot.footprint.front,
             rear_m=cfg.robot.footprint.rear,
+            door_scan=cfg.controller.door_scan,
         )
         self.bus = bus
         self.keys = keys

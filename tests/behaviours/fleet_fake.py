@@ -53,6 +53,7 @@ class ScriptedFleet:
         self.scan_stamp = 0.0
         self.lidar = "open"
         self.lane = False
+        self.doorways: list[tuple[float, float, float, float]] = []  # what the scans show
         self.widths: list[float] = []  # the door widths the LiDAR checks were asked about
         self.x, self.y, self.th = 0.0, 0.0, 0.0
         self.events: list[tuple[str, str]] = []
@@ -122,6 +123,10 @@ class ScriptedFleet:
         self.widths.append(width_m)
         self.scan_stamp += 0.1
         return self.scan_stamp, self.lane
+
+    def doorways_seen(self) -> tuple[float, list[tuple[float, float, float, float]]]:
+        self.scan_stamp += 0.1
+        return self.scan_stamp, list(self.doorways)
 
     def room_to_turn(self, radius_m: float) -> bool:
         return self.turn_room

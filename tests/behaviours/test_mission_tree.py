@@ -7,6 +7,7 @@ its heading) and says so.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -263,6 +264,12 @@ def test_automatic_door_gets_idle_motion_until_it_opens() -> None:
     assert fleet.sent[-1].path_id == "r.door.d1"
 
 
+def located(tree) -> None:
+    """Tick through the door's location in the scans (a new scan per tick in the fake)."""
+    for _ in range(NavigatorConfig().locate_scans):
+        tree.tick()
+
+
 def passing(kind: str) -> tuple[py_trees.trees.BehaviourTree, ScriptedFleet]:
     """A tree at the pass of a ``kind`` door centred at (2, 0), found open."""
     blackboard()
@@ -274,6 +281,7 @@ def passing(kind: str) -> tuple[py_trees.trees.BehaviourTree, ScriptedFleet]:
     fleet.doors["d1"] = DoorMode.OPEN
     for _ in range(3):
         tree.tick()
+    located(tree)
     assert fleet.sent[-1].path_id == "r.door.d1"
     return tree, fleet
 
@@ -468,8 +476,9 @@ def test_lidar_must_agree_in_three_scans_before_passing() -> None:
     tree.tick()
     tree.tick()
     assert fleet.sent[-1].path_id == waiting  # two scans agree: not yet
-    tree.tick()
-    assert fleet.sent[-1].path_id == "r.door.d1"  # the third: go
+    tree.tick()  # the third: go, once the door is located in the scans
+    located(tree)
+    assert fleet.sent[-1].path_id == "r.door.d1"
 
 
 def test_safety_gate_holds_everything_and_resumes_where_it_was() -> None:
@@ -563,6 +572,7 @@ def test_door_checks_are_told_the_door_width() -> None:
     fleet.doors["d1"] = DoorMode.OPEN
     for _ in range(3):  # WaitForDoorOpen: the LiDAR door check
         tree.tick()
+    located(tree)
     checked = len(fleet.widths)
     tree.tick()  # DriveThrough: the lane check
     assert fleet.sent[-1].path_id == "r.door.d1" and len(fleet.widths) == checked + 1
@@ -730,3 +740,50 @@ def test_stop_turn_go_stays_for_automatic_doors_and_by_default() -> None:
         _following(fleet, 0.9)
         tree.tick()
         assert fleet.sent[-1].path_id == "r.0"  # no handover: the leg runs to its end
+
+
+def test_stop_turn_go_lines_up_on_the_door_the_scans_show() -> None:
+    # issue 14's door bench: with the map 10 cm off, stop-turn-go lined up on the mapped
+    # 0.80 m hinged door and stopped at the jamb (0 of 10). Seen 0.10 m to the left, the
+    # chair docks and turns again 0.10 m to the left and passes there.
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    fleet.doorways = [(2.02, 0.10, math.pi / 2, 0.8)]
+    for _ in range(3):
+        tree.tick()
+    located(tree)
+    again = fleet.sent[-1]
+    assert again.path_id == "Realign d1 #1"
+    assert again.waypoints[-1].tolist() == [1.0, pytest.approx(0.10)]
+    assert again.keep_out[0, 1] == pytest.approx(-0.5 + 0.10)  # the doorway, moved too
+    assert any(kind == "door_located" for kind, _ in fleet.events)
+    fleet.arrive()
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Turn again d1 #1"
+    fleet.arrive()
+    tree.tick()
+    passing_path = fleet.sent[-1]
+    assert passing_path.path_id == "r.door.d1"
+    assert passing_path.waypoints[:, 1] == pytest.approx(0.10)
+
+
+def test_a_door_seen_where_the_map_has_it_is_passed_without_lining_up_again() -> None:
+    blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    fleet.doorways = [(2.0, 0.01, math.pi / 2, 0.8)]  # within locate_min_shift_m
+    for _ in range(3):
+        tree.tick()
+    located(tree)
+    assert fleet.sent[-1].path_id == "r.door.d1"
+    assert fleet.sent[-1].waypoints[:, 1] == pytest.approx(0.0)
+    assert not any(kind == "door_located" for kind, _ in fleet.events)

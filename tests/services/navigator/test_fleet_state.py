@@ -15,6 +15,7 @@ from shared.messages import (
     Pose2D,
     PoseEstimate,
 )
+from tests.shared.test_door_scan import _cast
 
 
 def state() -> FleetState:
@@ -115,3 +116,18 @@ def test_a_door_left_behind_on_another_floor_is_closed_and_a_reopened_one_is_not
     s.door_request("d2", DoorMode.OPEN)  # asked open again: the close is dropped
     s.on_pose(PoseEstimate(1.0, Pose2D(1.0, 0.0, 0.0, "2"), np.eye(3)))
     assert [r.door_name for r in s.doors_clear_to_close()] == ["d1"]
+
+
+def test_the_doorways_in_the_latest_scan_are_given_on_the_map() -> None:
+    s = state()
+    assert s.doorways_seen() == (-1.0, [])
+    # a wall 2 m ahead of the sensor with a 0.9 m gap to its left, the chair at (10, 5)
+    # facing +y: the gap's centre is at (10 - 0.45, 5 + 2) on the map, its wall along x
+    walls = [((2, -3), (2, 0.0)), ((2, 0.9), (2, 3)), ((5, -3), (5, 3))]
+    xy = _cast(walls)
+    s.on_pose(PoseEstimate(1.0, Pose2D(10.0, 5.0, np.pi / 2), np.eye(3)))
+    s.on_scan(PointCloud(1.0, "lidar", np.c_[xy, np.zeros(len(xy))].astype(np.float32)))
+    stamp, ((x, y, direction, width),) = s.doorways_seen()
+    assert stamp == 1.0 and abs(width - 0.9) < 0.02
+    assert abs(x - 9.55) < 0.02 and abs(y - 7.0) < 0.02
+    assert abs(np.sin(direction)) < 0.02  # the wall runs along the map's x axis
