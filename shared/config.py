@@ -8,6 +8,7 @@ one line naming the dotted path, e.g. ``controller.lookahead_m: must be > 0, got
 from __future__ import annotations
 
 import dataclasses
+import ipaddress
 import logging
 import math
 import typing
@@ -586,6 +587,114 @@ class LauncherConfig:
     ready_timeout_s: float = field(default=60.0, metadata=check(_positive))
 
 
+# ---- the real chair's drivers (the hardware profile) ----------------------------------
+
+
+def _sign(v: int) -> str | None:
+    return None if v in (-1, 1) else "must be 1 or -1"
+
+
+def _interval(v: int) -> str | None:
+    # the chair accepts 10 ms and more; the SDK can tell time stamps apart below 100 ms
+    return None if 10 <= v < 100 else "must be in [10, 100) ms"
+
+
+def _percent(v: int) -> str | None:
+    return None if 0 <= v <= 100 else "must be in [0, 100]"
+
+
+@dataclass
+class WhillConfig:
+    """The WHILL Model CR base driver (services/whill_driver)."""
+
+    port: str = field(default="/dev/ttyUSB0", metadata=check(lambda v: None if v else "empty"))
+    # send SetPower on when the port opens (and when the chair stops sending)
+    power_on: bool = True
+    # data set 1 from the chair every data_interval_ms; odom and status to the fleet
+    data_interval_ms: int = field(default=20, metadata=check(_interval))
+    odom_rate_hz: float = field(default=50.0, metadata=check(_positive))
+    status_rate_hz: float = field(default=2.0, metadata=check(_positive))
+    # the contract: no cmd_vel for this long (receiver's clock) and the chair is stopped
+    command_timeout_s: float = field(default=0.3, metadata=check(_positive))
+    # no data set 1 for this long: the link is down (no odom published, stream restarted)
+    data_timeout_s: float = field(default=0.5, metadata=check(_positive))
+    reconnect_s: float = field(default=1.0, metadata=check(_positive))
+    # the driver's clamp of cmd_vel, inside the chair's own range (-0.56..1.67 m/s, and
+    # 0.83 m/s of wheel-speed difference); keep them >= robot.max_* or the chair is
+    # slower than the controller plans (the node warns)
+    max_speed: float = field(default=0.6, metadata=check(_positive))
+    max_reverse_speed: float = field(default=0.25, metadata=check(_non_negative))
+    max_turn_rate: float = field(default=1.0, metadata=check(_positive))
+    # the chair's build (WHILL's figures for the Model CR)
+    wheel_radius_m: float = field(default=0.1325, metadata=check(_positive))
+    track_m: float = field(default=0.496, metadata=check(_positive))
+    # which way each motor counts when the chair drives forwards (check at bring-up)
+    left_wheel_sign: int = field(default=1, metadata=check(_sign))
+    right_wheel_sign: int = field(default=-1, metadata=check(_sign))
+    # the rider holds the joystick when it is deflected beyond this (of 100); the driver
+    # hands the chair over and takes it back after joystick_release_s at rest
+    joystick_deadband: int = field(default=5, metadata=check(_percent))
+    joystick_release_s: float = field(default=1.0, metadata=check(_non_negative))
+
+    def validate(self) -> None:
+        """Run the field rules on a section built or changed in code; ConfigError naming
+        the key (``whill.port: empty, got ''``)."""
+        for f in dataclasses.fields(self):
+            rule = f.metadata.get("check")
+            value = getattr(self, f.name)
+            problem = rule(value) if rule else None
+            if problem:
+                raise ConfigError(f"whill.{f.name}: {problem}, got {value!r}")
+
+
+def _port(v: int) -> str | None:
+    return None if 0 <= v <= 65535 else "must be a UDP port in [0, 65535] (0: any free port)"
+
+
+def _ipv4(v: str) -> str | None:
+    try:
+        ipaddress.IPv4Address(v)
+    except ValueError:
+        return "must be an IPv4 address (0.0.0.0: every interface)"
+    return None
+
+
+def _frame_name(v: str) -> str | None:
+    return None if v.strip() and v == v.strip() else "must be a name without spaces around it"
+
+
+@dataclass
+class Vlp16Config:
+    """The VLP-16 LiDAR driver (services/vlp16_driver): UDP packets in, ``scan`` out."""
+
+    # where the sensor's data packets arrive: its data port (2368 unless reconfigured on the
+    # sensor's web page) on the address of the interface it is wired to (0.0.0.0: any,
+    # which also takes the sensor's default broadcast)
+    port: int = field(default=2368, metadata=check(_port))
+    bind_address: str = field(default="0.0.0.0", metadata=check(_ipv4))
+    # the socket's receive buffer (the kernel caps it at net.core.rmem_max): room for the
+    # packets of a few revolutions while the decoder is busy
+    receive_buffer_bytes: int = field(default=4 << 20, metadata=check(_at_least(65536)))
+    # the published PointCloud's frame, and the returns kept (m, from the laser)
+    frame: str = field(default="lidar", metadata=check(_frame_name))
+    min_range_m: float = field(default=0.4, metadata=check(_non_negative))
+    max_range_m: float = field(default=100.0, metadata=check(_positive))
+
+    def validate(self) -> None:
+        """Raise ConfigError naming the key on a setting the driver cannot run with."""
+        for f in dataclasses.fields(self):
+            rule = f.metadata.get("check")
+            value = getattr(self, f.name)
+            problem = rule(value) if rule else None
+            if problem:
+                raise ConfigError(f"vlp16.{f.name}: {problem}, got {value!r}")
+        if self.min_range_m >= self.max_range_m:
+            raise ConfigError(
+                f"vlp16.min_range_m: must be < max_range_m ({self.max_range_m}), "
+                f"got {self.min_range_m!r}"
+            )
+
+
 @dataclass
 class FleetConfig:
     """The whole fleet's configuration."""
@@ -604,6 +713,8 @@ class FleetConfig:
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     launcher: LauncherConfig = field(default_factory=LauncherConfig)
+    whill: WhillConfig = field(default_factory=WhillConfig)
+    vlp16: Vlp16Config = field(default_factory=Vlp16Config)
 
 
 # --------------------------------------------------------------------------------------

@@ -133,6 +133,21 @@ class Odometry(Msg):
     frame: str = "odom"
 
 
+@message("driver_status")
+@dataclass
+class DriverStatus(Msg):
+    """The chair driver's view of the base: battery (%), speed mode and error code as the
+    chair reports them, whether the rider holds the joystick (the driver has handed the
+    chair to them) and whether the serial link is up (port open, data arriving)."""
+
+    stamp: float = num(*STAMP)
+    battery_percent: int = num(0, 100)
+    speed_mode: int = num(0, 255)
+    error_code: int = num(0, 255)
+    joystick_active: bool = False
+    serial_ok: bool = False
+
+
 @message("pose_estimate")
 @dataclass
 class PoseEstimate(Msg):

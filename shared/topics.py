@@ -86,6 +86,15 @@ TOPICS: tuple[Topic, ...] = (
         "LiDAR points in the sensor frame",
     ),
     Topic(
+        "driver_status",
+        "{ns}/driver/status",
+        m.DriverStatus,
+        "pub",
+        "chair driver",
+        "navigator, user",
+        "the base: battery, speed mode, error code, rider on the joystick, serial link",
+    ),
+    Topic(
         "pose",
         "{ns}/pose",
         m.PoseEstimate,

@@ -18,6 +18,7 @@ def samples() -> list[m.Msg]:
         pose,
         m.Twist(1.5, 0.4, -0.2),
         m.Odometry(2.0, pose, 0.5, 0.1),
+        m.DriverStatus(2.0, 80, 4, 0, joystick_active=True, serial_ok=True),
         m.PoseEstimate(2.0, pose, np.eye(3) * 0.01, lost=True),
         m.PointCloud(
             3.0, "lidar", np.random.default_rng(0).normal(size=(1000, 3)).astype(np.float32)

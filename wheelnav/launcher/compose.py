@@ -16,8 +16,9 @@ HEADER = """\
 #   docker compose --profile sim up
 #       the full simulated fleet (config deploy/fleet.sim.yaml)
 #   WHEELNAV_PROFILE=hardware docker compose --profile hardware up
-#       everything but the simulator, on wall time (config deploy/fleet.hardware.yaml);
-#       the chair driver speaks the topics listed in docs/ARCHITECTURE.md
+#       everything but the simulator and the building emulator, on wall time (config
+#       deploy/fleet.hardware.yaml), with the WHILL driver on /dev/ttyUSB0 and the VLP-16
+#       driver on UDP 2368 (docs/ARCHITECTURE.md, "Contract for a hardware driver")
 """
 
 
@@ -47,6 +48,10 @@ def compose_dict() -> dict:
             "restart": "on-failure",
             "profiles": list(spec.profiles),
         }
+        if spec.devices:
+            services[spec.name]["devices"] = [f"{d}:{d}" for d in spec.devices]
+        if spec.udp_ports:
+            services[spec.name]["ports"] = [f"{p}:{p}/udp" for p in spec.udp_ports]
     return {"name": "wheelnav", "services": services, "volumes": {"state": {}}}
 
 

@@ -20,6 +20,8 @@ class ServiceSpec:
     profiles: tuple[str, ...]
     doc: str
     args: tuple[str, ...] = ()
+    devices: tuple[str, ...] = ()  # host devices a container needs (the chair's serial port)
+    udp_ports: tuple[int, ...] = ()  # UDP ports a container receives on (the LiDAR's data)
 
     def command(self, config: str, connect: str) -> list[str]:
         """The command line that starts it (the same locally and in a container)."""
@@ -51,6 +53,20 @@ SERVICES: tuple[ServiceSpec, ...] = (
     ),
     ServiceSpec(
         "navigator", "services.navigator.node", ("sim", "hardware"), "mission behaviour tree"
+    ),
+    ServiceSpec(
+        "driver",
+        "services.whill_driver.node",
+        ("hardware",),
+        "WHILL base driver: cmd_vel to the chair, odometry and status back",
+        devices=("/dev/ttyUSB0",),
+    ),
+    ServiceSpec(
+        "vlp16_driver",
+        "services.vlp16_driver.node",
+        ("hardware",),
+        "VLP-16 LiDAR driver: UDP packets to scan",
+        udp_ports=(2368,),
     ),
 )
 PROFILES = ("sim", "hardware")
