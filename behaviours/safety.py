@@ -13,6 +13,11 @@ a way round of its own (``quits_when_held``: a smooth door pass hands the door t
 stop-turn-go). Phase
 limits count the time under a hold: one that runs out while the gate holds ends its
 phase there and then, as it would have with the chair moving.
+
+The :class:`PauseGate` above a whole mission tree is the other kind of hold: the
+operator's emergency stop or the rider taking the joystick. It lasts until it is cleared
+(no timeout, no recovery: nothing the mission could do would end it), and its time does
+not count against any limit.
 """
 
 from __future__ import annotations
@@ -24,7 +29,9 @@ from py_trees.common import Status
 
 from behaviours.timeouts import Timeout
 
-UNSAFE = ("stale_pose", "stale_scan", "obstacle", "blocked", "stale")
+# "estop": the controller holds an emergency stop (the navigator's own PauseGate holds
+# the mission above this gate while it knows of one)
+UNSAFE = ("stale_pose", "stale_scan", "obstacle", "blocked", "stale", "estop")
 RECOVERABLE = ("obstacle", "blocked")  # moving may clear these; stale inputs it cannot
 
 
@@ -65,6 +72,14 @@ class SafetyGate(py_trees.decorators.Decorator):
 
     def setup(self, **kwargs) -> None:
         self.fleet = kwargs["fleet"]
+
+    def discount_hold(self, held_s: float) -> None:
+        """The whole mission was held ``held_s`` seconds (a :class:`PauseGate`): a spell
+        under way does not count that time."""
+        if self.since is not None:
+            self.since += held_s
+        if self.clear_since is not None:
+            self.clear_since += held_s
 
     def unsafe(self) -> str:
         """Why the chair is unsafe now, or "" if it is not."""
@@ -148,6 +163,78 @@ class SafetyGate(py_trees.decorators.Decorator):
             if isinstance(b, Timeout) and b.status == Status.RUNNING and b.expired(now):
                 return b
         return None
+
+    def update(self) -> Status:
+        self.feedback_message = ""
+        return self.decorated.status
+
+
+class PauseGate(py_trees.decorators.Decorator):
+    """Holds a whole mission tree (RUNNING, its child not ticked) while ``reason()`` says
+    why: the emergency stop, the rider's pause (services/navigator/holds.py).
+
+    When a hold starts it stops the chair (the controller drops its path) and reports it
+    (event ``hold``); its feedback is the reason. When it ends, the time held is taken
+    off every phase limit and safety spell under way below (``discount_hold``), and every
+    behaviour that was running starts again (its ``initialise`` sends its path again, from
+    where the chair now stands), so the mission goes on where it was (event ``hold_over``).
+    Needs ``setup(fleet=...)``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        child: py_trees.behaviour.Behaviour,
+        reason: Callable[[], str],
+        clock: Callable[[], float],
+    ) -> None:
+        super().__init__(name=name, child=child)
+        self.reason = reason
+        self.clock = clock
+        self.fleet = None
+        self.since: float | None = None
+        self.why = ""
+
+    def setup(self, **kwargs) -> None:
+        self.fleet = kwargs["fleet"]
+
+    @property
+    def holding(self) -> bool:
+        return self.since is not None
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        why = self.reason()
+        now = self.clock()
+        if not why:
+            if self.since is not None:
+                self._resume(now)
+            yield from super().tick()
+            return
+        if self.since is None:
+            self.since = now
+            self.fleet.stop()
+            self.fleet.event("hold", why)
+        self.why = why
+        if self.status != Status.RUNNING:
+            self.initialise()
+        self.feedback_message = why
+        self.status = Status.RUNNING
+        yield self
+
+    def _resume(self, now: float) -> None:
+        held = now - self.since
+        self.since = None
+        below = list(self.decorated.iterate())
+        for b in below:
+            discount = getattr(b, "discount_hold", None)
+            if discount is not None and b.status == Status.RUNNING:
+                discount(held)
+        again = [b for b in below if b.status == Status.RUNNING and not b.children]
+        for b in again:
+            b.stop(Status.INVALID)  # the next tick initialises it afresh
+        steps = ", ".join(b.name for b in again) or "nothing was running"
+        self.fleet.event("hold_over", f"after {held:.1f} s ({self.why}): {steps} again")
+        self.why = ""
 
     def update(self) -> Status:
         self.feedback_message = ""

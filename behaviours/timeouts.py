@@ -18,7 +18,9 @@ class Timeout(py_trees.decorators.Decorator):
     Returns the child's status otherwise. When it fires, ``feedback_message`` says "timed
     out after N s" and ``on_timeout(reason)`` is called, so the reason can reach a report.
     ``extra()``, asked each time it starts, adds to ``duration`` what the situation then
-    calls for (a manoeuvre ahead).
+    calls for (a manoeuvre ahead). Time the whole mission was held (the emergency stop,
+    the rider's pause: :class:`behaviours.safety.PauseGate`) does not count:
+    :meth:`discount_hold` takes it off.
     """
 
     def __init__(
@@ -44,6 +46,10 @@ class Timeout(py_trees.decorators.Decorator):
         self.started = self.clock()
         self.limit = self.duration + (max(0.0, self.extra()) if self.extra else 0.0)
         self.feedback_message = ""
+
+    def discount_hold(self, held_s: float) -> None:
+        """The mission was held ``held_s`` seconds while this ran: that time does not count."""
+        self.started += max(0.0, held_s)
 
     def expired(self, now: float) -> bool:
         """True once its limit has passed since it started (whether ticked or not)."""

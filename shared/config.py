@@ -79,6 +79,19 @@ class RobotConfig:
         return self.footprint.width / 2 + self.side_margin_m
 
 
+def _existing_dir(v: str) -> str | None:
+    return None if not v or Path(v).is_dir() else "no such directory"
+
+
+@dataclass
+class SecurityConfig:
+    """Secured fleet: `dir` is a `wheelnav security init` folder, "" insecure (docs/security.md)."""
+
+    # with a folder, every session is mutual TLS plus user/password, each service joins as
+    # the identity of its own name, and the router enforces the access control
+    dir: str = field(default="", metadata=check(_existing_dir))
+
+
 @dataclass
 class TransportConfig:
     """How a service reaches the fleet: a Zenoh client of the router by default."""
@@ -93,6 +106,7 @@ class TransportConfig:
     )
     connect: list[str] = field(default_factory=lambda: ["tcp/127.0.0.1:7447"])
     listen: list[str] = field(default_factory=list)
+    security: SecurityConfig = field(default_factory=SecurityConfig)
 
 
 @dataclass
@@ -126,6 +140,10 @@ class SimConfig:
     # the site the simulator builds its world from, where it differs from the map the
     # stack is given (the top-level ``site``): "" = the same; a door 10 cm off, a wall moved
     world_site: str = ""
+    # on wall time (clock: wall) the chair's odom and scan are stamped as a driver would
+    # stamp them, with this host's clock plus stamp_offset_s (a driver whose clock is that
+    # far off: staleness must not depend on it); on simulation time, with the sim's clock
+    stamp_offset_s: float = 0.0
     lockstep: bool = True
     lockstep_timeout_s: float = field(default=5.0, metadata=check(_positive))
     lockstep_stages: list[list[str]] = field(

@@ -510,6 +510,45 @@ class NavGoal(Msg):
             raise Invalid("goal", "neither a goal pose nor a place (and not a cancel)")
 
 
+@message("nav_resume")
+@dataclass
+class NavResume(Msg):
+    """Resume the mission the rider paused by taking the joystick (``goal_id`` empty: the
+    running one); ``source`` says who asked, for the log."""
+
+    stamp: float = num(*STAMP)
+    source: str = ""
+    goal_id: str = ""
+
+
+# --------------------------------------------------------------------------------------
+# Emergency stop
+# --------------------------------------------------------------------------------------
+
+
+@message("emergency_stop")
+@dataclass
+class EmergencyStop(Msg):
+    """Set (``active``) or clear the emergency stop that every layer obeys: the controller
+    zeroes its command, the driver (or the simulator) stops the chair, the navigator holds
+    the mission. ``stamp`` is the sender's clock, for the log only (never compared with a
+    receiver's); ``source`` says who sent it and ``reason`` why."""
+
+    stamp: float = num(*STAMP)
+    active: bool
+    source: str = ""
+    reason: str = ""
+
+
+@message("emergency_stop_query")
+@dataclass
+class EmergencyStopQuery(Msg):
+    """Ask a service that obeys the emergency stop which one it holds (the reply is the
+    :class:`EmergencyStop` it last received); ``asker`` names who asks, for the log."""
+
+    asker: str = ""
+
+
 class Phase(StrEnum):
     """What the mission is doing (``NavStatus.phase``; on the wire it is the plain string).
 

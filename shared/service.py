@@ -175,7 +175,10 @@ class Service:
             signal.signal(sig, lambda *_: self.stop_event.set())
         watch_parent(self._launcher_gone)
         try:
-            session = open_session(self.cfg.transport)
+            session = open_session(self.cfg.transport, identity=self.name)
+        except ConfigError as exc:  # missing credentials: a restart cannot fix them
+            print(f"wheelnav-{self.name}: config error: {exc}", file=sys.stderr)
+            raise SystemExit(EXIT_CONFIG) from None
         except RuntimeError as exc:
             self.log.error("%s", exc)
             raise SystemExit(1) from None

@@ -11,6 +11,10 @@ expression as declared (a subscription to ``.../door/*/state`` counts every door
 that pattern) and :meth:`Bus.counters` reads them at once (the service publishes them as
 ``Diagnostics``).
 
+A session is secured (mutual TLS, user/password, the router's access control) when
+``transport.security.dir`` names a credentials folder (shared/credentials.py,
+docs/security.md); it joins as an identity: a service as its own name.
+
 Ordering: zenoh-python runs each subscriber's callbacks on a thread of its own, which
 loses the order in which samples of different keys arrived (a pose published before a
 clock tick could be handled after it). The bus therefore only enqueues on Zenoh's
@@ -33,7 +37,8 @@ from typing import Any, TypeVar
 import zenoh
 
 from shared.codec import DecodeError, decode, encode
-from shared.config import TransportConfig
+from shared.config import ConfigError, TransportConfig
+from shared.credentials import read_settings, secure_endpoint
 from shared.messages import Msg
 
 T = TypeVar("T", bound=Msg)
@@ -41,25 +46,49 @@ R = TypeVar("R", bound=Msg)
 log = logging.getLogger("wheelnav.transport")
 
 
-def zenoh_config(transport: TransportConfig) -> zenoh.Config:
-    """A Zenoh config for ``transport``: mode, endpoints, no multicast scouting (loopback-safe)."""
+def zenoh_config(
+    transport: TransportConfig, identity: str = "", access_control: dict | None = None
+) -> zenoh.Config:
+    """A Zenoh config for ``transport``: mode, endpoints, no multicast scouting (loopback-safe).
+
+    With ``transport.security.dir`` set, the session is secured as ``identity`` (mutual TLS,
+    user/password; endpoints move to ``tls/``) and a router enforces ``access_control``.
+    ConfigError with one line for missing credentials.
+    """
+    secured = bool(transport.security.dir)
+    if secured and transport.mode == "peer":
+        raise ConfigError("transport.security: a secured session is a client or the router")
+    move = secure_endpoint if secured else str
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(transport.mode))
     if transport.connect and transport.mode != "router":
-        conf.insert_json5("connect/endpoints", json.dumps(transport.connect))
+        conf.insert_json5("connect/endpoints", json.dumps([move(e) for e in transport.connect]))
     if transport.listen or transport.mode == "router":
-        conf.insert_json5("listen/endpoints", json.dumps(transport.listen))
+        conf.insert_json5("listen/endpoints", json.dumps([move(e) for e in transport.listen]))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    if secured:
+        router = transport.mode == "router"
+        for path, value in read_settings(transport.security.dir, identity, router).items():
+            conf.insert_json5(path, json.dumps(value))
+    if access_control is not None:
+        conf.insert_json5("access_control", json.dumps(access_control))
     return conf
 
 
-def open_session(transport: TransportConfig) -> zenoh.Session:
-    """Open a Zenoh session; raises RuntimeError with one line if the router is unreachable."""
+def open_session(
+    transport: TransportConfig, identity: str = "", access_control: dict | None = None
+) -> zenoh.Session:
+    """Open a Zenoh session; raises RuntimeError with one line if the router is unreachable
+    or refuses it (a secured router refuses wrong credentials the same way)."""
+    conf = zenoh_config(transport, identity, access_control)
     try:
-        return zenoh.open(zenoh_config(transport))
+        return zenoh.open(conf)
     except zenoh.ZError as exc:
-        where = ", ".join(transport.connect or transport.listen) or "default endpoints"
+        move = secure_endpoint if transport.security.dir else str
+        where = ", ".join(map(move, transport.connect or transport.listen)) or "default endpoints"
         reason = str(exc).split("  at ")[0].strip()  # drop zenoh's source location
+        if transport.security.dir and transport.mode != "router":
+            reason += f" (as {identity!r}: unreachable, or refused for these credentials)"
         raise RuntimeError(
             f"cannot open a Zenoh {transport.mode} session ({where}): {reason}"
         ) from None

@@ -4,11 +4,15 @@ Steps at ``controller.rate_hz`` of fleet time (a lockstep participant after the
 localisation), publishes a Twist and a FollowStatus every step. ``controller.mode``
 picks pure pursuit or the sampling MPC (services/controller/tracking.py); the MPC sees
 walls in the floor map and obstacles in the latest LiDAR scan. A pose older than
-``controller.pose_timeout_s`` or flagged lost gives a zero command.
+``controller.pose_timeout_s`` or flagged lost gives a zero command. While the emergency
+stop is active (shared/estop.py) the command is zero whatever the path, the tracker is
+not stepped and the status says ``estop``; a zero command goes out as soon as the stop
+arrives, without waiting for the next step.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 from collections.abc import Callable
@@ -17,7 +21,18 @@ import numpy as np
 
 from services.controller.safety import guard, guard_points
 from services.controller.tracking import Tracker
-from shared.messages import Clock, FollowStatus, Odometry, Path, PointCloud, PoseEstimate, Twist
+from shared.arrivals import Arrivals
+from shared.estop import EstopLatch, hold_estop
+from shared.messages import (
+    Clock,
+    Event,
+    FollowStatus,
+    Odometry,
+    Path,
+    PointCloud,
+    PoseEstimate,
+    Twist,
+)
 from shared.service import Service
 from shared.site import SiteError, load_site
 
@@ -88,6 +103,14 @@ class ScanCache:
         return self._value
 
 
+def stopped_status(last: FollowStatus | None, stamp: float, path_id: str) -> FollowStatus:
+    """The status under the emergency stop: state ``estop``, the path held and the figures
+    of the last status about it (zero without one)."""
+    if last is None or last.path_id != path_id:
+        return FollowStatus(stamp, path_id, "estop", 0.0, 0.0, 0.0)
+    return dataclasses.replace(last, stamp=stamp, state="estop")
+
+
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
         cfg, keys, bus = svc.cfg, svc.keys, svc.bus
@@ -101,6 +124,7 @@ def main(argv: list[str] | None = None) -> None:
         noted = [""]  # the docker's last manoeuvre note, logged once when it changes
         latest: dict[str, object] = {}
         poses = PoseHistory(SCAN_POSE_WINDOW_S)
+        arrivals = Arrivals(wall=cfg.clock == "wall")  # staleness on this clock (wall time)
 
         placed = ScanCache(
             lambda scan, at: scan_to_world(
@@ -113,6 +137,7 @@ def main(argv: list[str] | None = None) -> None:
 
         def on_pose(msg: PoseEstimate) -> None:
             latest["pose"] = msg
+            arrivals.arrived("pose")
             poses.add(msg)
 
         def on_odom(msg: Odometry) -> None:
@@ -120,6 +145,7 @@ def main(argv: list[str] | None = None) -> None:
 
         def on_scan(msg: PointCloud) -> None:
             latest["scan"] = msg
+            arrivals.arrived("scan")
 
         def on_path(msg: Path) -> None:
             tracker.set_path(
@@ -139,13 +165,28 @@ def main(argv: list[str] | None = None) -> None:
                 " (reverse)" if msg.reverse else "",
             )
 
+        def on_estop(latch: EstopLatch) -> None:
+            stamp = latest["clock"].stamp if "clock" in latest else 0.0
+            detail = "emergency stop cleared: tracking again"
+            if latch.stop.active:
+                bus.publish(cmd_key, Twist(stamp, 0.0, 0.0))  # at once, not at the next step
+                detail = f"{latch.reason()}: command zeroed"
+            bus.publish(events_key, Event(stamp, NAME, "emergency_stop", detail, "warning"))
+
         def step(clock: Clock) -> None:
+            latest["clock"] = clock
+            if estop.active:
+                status = stopped_status(latest.get("status"), clock.stamp, tracker.path_id)
+                bus.publish(cmd_key, Twist(clock.stamp, 0.0, 0.0))
+                bus.publish(status_key, status)
+                return
             pose = latest.get("pose")
             if pose is None:
                 cmd_v, cmd_w = 0.0, 0.0
                 status = FollowStatus(clock.stamp, tracker.path_id, "no_pose", 0.0, 0.0, 0.0)
             else:
-                fresh = clock.stamp - pose.stamp <= cc.pose_timeout_s and not pose.lost
+                age = arrivals.age("pose", pose.stamp, clock.stamp)
+                fresh = age <= cc.pose_timeout_s and not pose.lost
                 odom = latest.get("odom")
                 scan = latest.get("scan")
                 obstacles = placed(scan, poses.at(scan.stamp) or pose) if scan is not None else None
@@ -175,7 +216,11 @@ def main(argv: list[str] | None = None) -> None:
                     cmd.state,
                     clock.stamp,
                     fresh,
-                    scan.stamp if scan is not None else None,
+                    # the scan's time on this clock (its stamp in lockstep, its arrival on
+                    # wall time): the guard judges its age against clock.stamp
+                    None
+                    if scan is None
+                    else clock.stamp - arrivals.age("scan", scan.stamp, clock.stamp),
                     near(scan) if scan is not None else None,
                     cfg.robot,
                     cc,
@@ -192,6 +237,7 @@ def main(argv: list[str] | None = None) -> None:
                     cmd.cross_track,
                     tracker.precise,
                 )
+            latest["status"] = status
             bus.publish(cmd_key, Twist(clock.stamp, cmd_v, cmd_w))
             bus.publish(status_key, status)
 
@@ -201,6 +247,8 @@ def main(argv: list[str] | None = None) -> None:
         bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, on_scan)
         cmd_key = svc.declare("publishes", keys.cmd_vel)
         status_key = svc.declare("publishes", keys.follow_status)
+        events_key = svc.declare("publishes", keys.key("events", source=NAME))
+        estop = hold_estop(bus, keys, NAME, svc.log, on_estop)
         svc.log.info("tracking with %s", cc.mode)
         svc.every(cc.rate_hz, step)
         svc.wait()

@@ -9,7 +9,9 @@ mission's avoid set and lift session, and builds the messages the other half sen
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -56,6 +58,7 @@ class FleetState:
         front_m: float = 0.76,
         rear_m: float = 0.35,
         door_scan: DoorScanConfig | None = None,
+        restamp: Callable[[], float] | None = None,
     ) -> None:
         self.robot = robot
         self.door_check = door_check
@@ -64,6 +67,10 @@ class FleetState:
         self.front_m, self.rear_m = front_m, rear_m  # the footprint around the pose point
         self.reach_m = math.hypot(max(front_m, rear_m), half_width_m)  # its farthest corner
         self.source = source
+        # on wall time, the controller's status is stamped on arrival with this clock (the
+        # navigator's own): behaviours judge its age against now(), and a controller on
+        # another host stamps from another clock (shared/arrivals.py)
+        self.restamp = restamp
         self.clock: Clock | None = None
         self.avoided: set[str] = set()
         self.blocking: list[tuple[float, float, str]] = []  # marked by recoveries (map frame)
@@ -90,6 +97,8 @@ class FleetState:
         self._odom = msg
 
     def on_follow(self, msg: FollowStatus) -> None:
+        if self.restamp is not None:  # wall time: its age on this clock, not the controller's
+            msg = dataclasses.replace(msg, stamp=self.restamp())
         self._follow = msg
 
     def on_scan(self, msg: PointCloud) -> None:

@@ -7,6 +7,13 @@ built from that route (``behaviours.mission``). A door or lift that fails and is
 progress, the reason) goes out on every change and at ``navigator.status_rate_hz``; a
 snapshot of the tree on every change of its statuses.
 
+Every tree stands under a :class:`~behaviours.safety.PauseGate`, which holds the mission
+while the emergency stop is active or the rider has paused it (:mod:`holds`): the chair
+is stopped, no limit runs, and the mission goes on where it was once the hold ends (the
+stop cleared; the pause resumed by request, :meth:`Navigator.on_resume`). Held somewhere
+else than where it stopped (the rider drove it more than ``holds.MOVED_M``), outside a
+lift car, it plans the route again from there instead.
+
 No Zenoh here: the rest of the fleet is a :class:`MissionFleet` (the behaviours'
 :class:`~behaviours.fleet.Fleet` plus the mission's avoid set and lift session) and what
 the navigator publishes goes to a :class:`NavigatorOutput`; ``node.py`` implements both
@@ -28,17 +35,22 @@ from behaviours.fleet import NS, Fleet
 from behaviours.mission import EntryParams, create_plan_tree, create_route_tree, route_steps
 from behaviours.motion import FollowPath
 from behaviours.recovery import create_recovery_tree
+from behaviours.safety import PauseGate
 from behaviours.snapshot import signature, snapshot
+from services.navigator.holds import MOVED_M, Holds, moved_m
 from services.navigator.leases import Leases
-from services.navigator.resume import MissionRecord
+from services.navigator.resume import IN_A_CAR, MissionRecord
 from shared.codec import encode
 from shared.config import FleetConfig, NavigatorConfig
 from shared.messages import (
     TERMINAL_STATES,
     Availability,
+    DriverStatus,
     NavGoal,
+    NavResume,
     NavStatus,
     Phase,
+    Pose2D,
     RouteReply,
     TreeSnapshot,
 )
@@ -116,6 +128,10 @@ class Navigator:
         self._last_sent_at = -1e9
         self._tree_sig: tuple | None = None
         self._tree_sent_at = -1e9
+        self.holds = Holds()
+        self._gate: PauseGate | None = None  # the running tree's root
+        self._held = False  # the mission was held at the last step
+        self._held_at: Pose2D | None = None  # where the chair stood when the hold began
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
         for key in ("goal", "place", "failure", "phase", "route", "blocked", "action", "recover"):
             self.bb.register_key(key, access=Access.WRITE)
@@ -155,6 +171,7 @@ class Navigator:
             list(self.avoided),
             self._route_saved if self.driving else "",
             step,
+            self.holds.paused,
         )
 
     def ride_on(self, msg: NavGoal, route: RouteReply, step: int) -> None:
@@ -190,15 +207,49 @@ class Navigator:
         self.recoveries = 0
         self.fallbacks = []
         self.around_marks = False
+        self.holds.paused = ""  # a new goal is asked for: the rider's pause (if any) ends
+        self._held, self._held_at = False, None
         self._plan()
         target = msg.place or f"({msg.goal.x:.2f}, {msg.goal.y:.2f})"
         self.log.info("mission %s to %s", msg.goal_id, target)
         self.status = NavStatus(self.fleet.now(), msg.goal_id, "running")
 
+    def set_estop(self, reason: str) -> None:
+        """The emergency stop in words ("" when there is none): held while there is."""
+        self.holds.estop = reason
+
+    def on_driver_status(self, msg: DriverStatus) -> None:
+        """The driver's report: the rider taking the joystick pauses a running mission."""
+        self.holds.rider = msg.joystick_active
+        self._pause_for_rider()
+
+    def on_resume(self, msg: NavResume) -> None:
+        """Resume the mission the rider paused (refused, saying why, if it cannot be)."""
+        who = msg.source or "?"
+        if not self.running:
+            why = "no mission is running"
+        elif msg.goal_id and msg.goal_id != self.status.goal_id:
+            why = f"mission {msg.goal_id} is not the running one ({self.status.goal_id})"
+        else:
+            why = self.holds.resume()
+        if why:
+            self.log.warning("resume asked by %s refused: %s", who, why)
+            self.fleet.event("resume_refused", f"asked by {who}: {why}")
+            return
+        still = f"; still {self.holds.reason()}" if self.holds.reason() else ""
+        self.log.warning("mission %s resumed by %s%s", self.status.goal_id, who, still)
+        self.fleet.event("resume", f"mission {self.status.goal_id} resumed by {who}{still}")
+
+    def _pause_for_rider(self) -> None:
+        if self.running and self.holds.pause_for_rider():
+            self.log.warning("mission %s paused: %s", self.status.goal_id, self.holds.paused)
+
     def step(self, now: float) -> None:
         """Tick the running tree once (``now``: the fleet clock), then publish the status."""
         if self.running:
             self.leases.renew(now)
+            self._pause_for_rider()
+            self._watch_hold()
             self.tree.tick()
             self._stream_tree(now)
             result = self.tree.root.status
@@ -215,7 +266,7 @@ class Navigator:
             elif result == Status.FAILURE:
                 self._set("failed", reason=self._failure_reason())
             else:
-                tip = self.tree.tip()
+                tip = self._gate if self._gate.holding else self.tree.tip()
                 self._set(
                     "running",
                     phase=self.bb.phase,
@@ -224,10 +275,34 @@ class Navigator:
                 )
         self._publish(now)
 
+    def _watch_hold(self) -> None:
+        """Where a hold begins, remember the pose; where it ends with the chair moved
+        more than ``MOVED_M`` (outside a lift car), plan the route again from there."""
+        held = bool(self.holds.reason())
+        est = self.fleet.pose()
+        here = est.pose if est is not None else None
+        if held and not self._held:
+            self._held, self._held_at = True, here
+            return
+        if held or not self._held:
+            return
+        self._held = False
+        moved = moved_m(self._held_at, here)
+        if moved <= MOVED_M or self.bb.phase in IN_A_CAR or not (self.driving or self.recovering):
+            return
+        self.tree.root.stop(Status.INVALID)
+        self.recovering = False
+        self.fleet.event("hold_over", f"moved {moved:.1f} m while held: planning again from here")
+        self._plan()
+        self._set("running", phase=Phase.PLAN, action="re-plan")
+
     # ---- the two trees ------------------------------------------------------------------
 
     def _grow(self, root: py_trees.behaviour.Behaviour) -> None:
-        self.tree = py_trees.trees.BehaviourTree(root)
+        """Run ``root`` (a plan, route or recovery tree) as the mission's tree, under the
+        pause gate."""
+        self._gate = PauseGate("Pause", root, self.holds.reason, self.fleet.now)
+        self.tree = py_trees.trees.BehaviourTree(self._gate)
         # setup only stores the fleet handle (never blocks); a finite timeout would need
         # signals, which only work on the main thread, and goals arrive on Zenoh threads
         self.tree.setup(timeout=py_trees.common.Duration.INFINITE, fleet=self.leases)
@@ -415,6 +490,7 @@ class Navigator:
         )
         if state in TERMINAL_STATES:
             self.log.info("mission %s %s: %s", s.goal_id, state, self.status.reason)
+            self.holds.paused = ""
             self._release_held()
 
     def _release_held(self) -> None:

@@ -5,12 +5,15 @@ NavStatus on every change and at ``navigator.status_rate_hz``. While a route req
 out, the lockstep answer is held back, so when the route arrives does not depend on
 machine load. The mission logic is :mod:`services.navigator.navigator`, the fleet's
 state :mod:`services.navigator.fleet_state`; this module only wires them to the bus, and
-keeps the mission where a restarted navigator takes it up (:mod:`resume`).
+keeps the mission where a restarted navigator takes it up (:mod:`resume`). It holds the
+emergency stop (shared/estop.py), hears the driver's status (the rider's joystick) and
+resume requests.
 """
 
 from __future__ import annotations
 
 import base64
+import time
 from collections.abc import Callable
 
 from services.navigator.fleet_state import FleetState
@@ -18,14 +21,17 @@ from services.navigator.navigator import NAME, Navigator
 from services.navigator.resume import MissionRecord, in_car, resume_goal
 from shared.codec import DecodeError, decode
 from shared.config import FleetConfig
+from shared.estop import hold_estop
 from shared.lockstep import Participant
 from shared.messages import (
     Availability,
     Clock,
     DoorState,
+    DriverStatus,
     FollowStatus,
     LiftState,
     NavGoal,
+    NavResume,
     NavStatus,
     Odometry,
     Path,
@@ -54,6 +60,7 @@ class ZenohFleet(FleetState):
             front_m=cfg.robot.footprint.front,
             rear_m=cfg.robot.footprint.rear,
             door_scan=cfg.controller.door_scan,
+            restamp=time.time if cfg.clock == "wall" else None,
         )
         self.bus = bus
         self.keys = keys
@@ -172,6 +179,9 @@ class Saver:
             self.nav.on_goal(goal)
         for checkpoint in record.avoided:
             self.nav.avoid(checkpoint)
+        if record.paused:  # a restart is no request to resume
+            self.nav.holds.paused = record.paused
+            how += f", still paused ({record.paused})"
         text = f"took up mission {goal.goal_id} (it was in {record.phase or 'plan'}): {how}"
         self.log.warning("%s", text)
         self.nav.fleet.event("resumed", text)
@@ -180,7 +190,7 @@ class Saver:
         record = self.nav.record()
         if record is None:
             return
-        key = (record.goal_id, record.state, record.phase, tuple(record.avoided))
+        key = (record.goal_id, record.state, record.phase, tuple(record.avoided), record.paused)
         if key != self._last or (record.state == "running" and now - self._saved_at >= 1.0):
             self.store.save(record.to_dict())
             self._last, self._saved_at = key, now
@@ -193,8 +203,11 @@ def main(argv: list[str] | None = None) -> None:
         nav = Navigator.from_config(svc.cfg, fleet, BusOutput(bus, keys), svc.log)
         saver = Saver(nav, StateStore.from_env(NAME), svc.cfg.navigator.resume_within_s, svc.log)
 
+        estop = hold_estop(bus, keys, NAME, svc.log)
+
         def step(clock: Clock) -> None:
             fleet.on_clock(clock)
+            nav.set_estop(estop.reason())
             follow = fleet.follow_status()
             # a saved mission waits for the pose and for the controller to end the leg it
             # had (a pass through a door, a drive out of a car)
@@ -217,6 +230,10 @@ def main(argv: list[str] | None = None) -> None:
         )
         bus.subscribe(svc.declare("subscribes", keys.scan), PointCloud, fleet.on_scan)
         bus.subscribe(svc.declare("subscribes", keys.odom), Odometry, fleet.on_odom)
+        bus.subscribe(
+            svc.declare("subscribes", keys.driver_status), DriverStatus, nav.on_driver_status
+        )
+        bus.subscribe(svc.declare("subscribes", keys.nav_resume), NavResume, nav.on_resume)
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.tree)
         svc.declare("publishes", keys.nav_route)

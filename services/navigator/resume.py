@@ -9,7 +9,9 @@ route. It waits until the controller has finished the leg it was on and stopped 
 (never into a door or a car: those legs are sent one at a time). Entering a car or riding
 in it, it takes up the saved route at that lift step from "send the car to the floor"
 (which renews the lift session) and waits for the lift's state again; leaving a car, the
-back-out leg ends outside on the new floor and the goal is planned again. Pure: no I/O.
+back-out leg ends outside on the new floor and the goal is planned again. A mission the
+rider had paused (services/navigator/holds.py) is taken up paused: a restart does not
+resume it. Pure: no I/O.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ class MissionRecord:
     avoided: list[str] = field(default_factory=list)
     route: str = ""  # the route being driven, encoded (base64 of the codec's bytes)
     step: int = -1  # the index of its running step (a leg, a door, a lift)
+    paused: str = ""  # why the rider's pause held it ("" when it was not paused)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -48,6 +51,7 @@ class MissionRecord:
             "avoided": list(self.avoided),
             "route": self.route,
             "step": self.step,
+            "paused": self.paused,
         }
 
     @classmethod
@@ -70,6 +74,7 @@ class MissionRecord:
                 [str(a) for a in d.get("avoided", [])],
                 str(d.get("route", "")),
                 int(d.get("step", -1)),
+                str(d.get("paused", "")),
             )
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise ValueError(f"saved mission: missing or malformed field ({exc})") from None

@@ -2,7 +2,9 @@
 
 Publishes the clock (in lockstep stages), odometry every tick, LiDAR scans, and for
 evaluation only the ground truth and a collision/clearance status. Listens for velocity
-commands; the chair's watchdog stops it when they stop coming.
+commands; the chair's watchdog stops it when they stop coming. Standing in for the
+driver, it obeys the emergency stop (shared/estop.py): while it is active every command
+is taken as zero, so the chair brakes to a stop whatever ``cmd_vel`` says.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import math
 import threading
 import time
 
+from shared.estop import EstopLatch, hold_estop
 from shared.lockstep import Barrier, TickProfile
 from shared.messages import (
     Ack,
@@ -72,7 +75,14 @@ def main(argv: list[str] | None = None) -> None:
         wake = threading.Condition(bus.lock)
 
         def on_cmd(msg: Twist) -> None:
-            sim.command(msg.v, msg.w)
+            if estop.active:
+                sim.command(0.0, 0.0)  # still a command: the watchdog is not what stops it
+            else:
+                sim.command(msg.v, msg.w)
+
+        def on_estop(latch: EstopLatch) -> None:
+            if latch.stop.active:
+                sim.command(0.0, 0.0)
 
         def on_ack(msg: Ack) -> None:
             barrier.ack(msg)
@@ -87,6 +97,7 @@ def main(argv: list[str] | None = None) -> None:
             sim.set_door_openings(msg.doors, msg.door_openings)
             sim.set_lifts(msg.lifts, msg.car_elevations, msg.lift_door_openings)
 
+        estop = hold_estop(bus, keys, NAME, svc.log, on_estop)
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, on_cmd)
         bus.subscribe(
             svc.declare("subscribes", keys.key("building_bodies")), BuildingBodies, on_bodies
@@ -159,11 +170,13 @@ def _run(
         t1 = clock()
         profile.physics_s += t1 - t0
         stamp = result.stamp
+        # the chair's sensors: stamped as a driver stamps them (its host's clock) on wall time
+        sensed = time.time() + cfg.sim.stamp_offset_s if cfg.clock == "wall" else stamp
         if result.scan is not None:
-            bus.publish(keys.scan, PointCloud(stamp, "lidar", result.scan))
+            bus.publish(keys.scan, PointCloud(sensed, "lidar", result.scan))
         o = sim.odometry
         # wheel odometry knows nothing of floors: the floor comes from the lift protocol
-        bus.publish(keys.odom, Odometry(stamp, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
+        bus.publish(keys.odom, Odometry(sensed, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
         bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
         events_key = keys.key("events", source=NAME)
         if result.new_collision:

@@ -6,15 +6,18 @@
 * :class:`Base`: the command watchdog (no ``cmd_vel`` for ``command_timeout_s`` of the
   driver's own monotonic clock: stop the chair, the contract of docs/ARCHITECTURE.md),
   the rider (a deflected joystick: hand the chair back to its joystick and send nothing
-  else until it has been at rest for ``joystick_release_s``), wheel odometry, and the
-  chair's condition for the status message. It never reads a clock: every method takes
-  ``now``.
+  else until it has been at rest for ``joystick_release_s``), the emergency stop (a stop
+  every cycle while it is active, whatever ``cmd_vel`` says; cleared, it drives again only
+  on a command that comes after), wheel odometry, and the chair's condition for the status
+  message. It never reads a clock: every method takes ``now``.
 
 Before the first ``cmd_vel`` the driver sends nothing (the chair stays with its rider);
 after it, it keeps sending: the command while fresh, a stop when it is stale (a stop
 every cycle also keeps the chair's own 1 s timeout from handing it back mid-mission).
 While no data set arrives (``data_timeout_s``) it sends a stop too: it does not drive a
-chair it cannot see, nor move it where odometry would miss the motion.
+chair it cannot see, nor move it where odometry would miss the motion. The rider comes
+before the emergency stop: a deflected joystick is handed the chair even then (the stop
+is the fleet's, and the WHILL gives its own joystick the last word anyway).
 """
 
 from __future__ import annotations
@@ -71,6 +74,7 @@ class Base:
         self.command_at = -math.inf
         self.stopped = False  # the watchdog has stopped the chair (until a new command)
         self.rider = False  # the rider holds the joystick
+        self.estop = False  # the emergency stop is active
         self.joystick_at = -math.inf  # when it was last seen deflected
         self.sample: Sample | None = None
         self.sample_at = -math.inf
@@ -104,6 +108,19 @@ class Base:
         if s.error_code and (previous is None or previous.error_code != s.error_code):
             self._event("chair_error", f"the chair reports error code {s.error_code}", "error")
 
+    def on_estop(self, active: bool, reason: str = "") -> None:
+        """The emergency stop was set (``active``) or cleared; ``reason`` says by whom."""
+        if active == self.estop:
+            return
+        self.estop = active
+        if active:
+            self._event(
+                "emergency_stop", f"{reason or 'emergency stop'}: stopping the chair", "warning"
+            )
+        else:
+            self.command = None  # nothing from before the stop: drive on a new command
+            self._event("emergency_stop", "emergency stop cleared: waiting for cmd_vel", "warning")
+
     def on_link_lost(self) -> None:
         """The serial link went down: the next data set starts the wheel angles afresh."""
         self.odometry.restart()
@@ -119,6 +136,8 @@ class Base:
             self._event("joystick_released", "the joystick is at rest: waiting for cmd_vel")
         if self.rider:
             return RELEASE
+        if self.estop:
+            return STOP
         if self.command is None:
             return None
         if now - self.command_at > self.cfg.command_timeout_s:

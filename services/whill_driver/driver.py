@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from services.whill_driver.base import Base
+from services.whill_driver.base import STOP, Base
 from services.whill_driver.chair import ChairLink
 from services.whill_driver.config import WhillConfig
 from services.whill_driver.odometry import Sample
@@ -72,6 +72,14 @@ class Driver:
         """A velocity command from the fleet (NaN and nonsense never get here: the codec)."""
         with self.lock:
             self.base.on_cmd_vel(twist, self.clock())
+
+    def on_estop(self, active: bool, reason: str = "") -> None:
+        """The emergency stop was set or cleared; set, the chair is sent a stop at once
+        (unless the rider holds it), not at the next step."""
+        with self.lock:
+            self.base.on_estop(active, reason)
+            action = STOP if active and not self.base.rider else None
+        self.link.send(action)  # outside the lock, as in step
 
     def _on_sample(self, sample: Sample) -> None:
         with self.lock:

@@ -5,9 +5,11 @@ base: holds ``alive/driver``; takes ``cmd_vel`` and stops the chair when none ha
 for ``whill.command_timeout_s`` (0.3 s); publishes ``odom`` at ``whill.odom_rate_hz``
 (50 Hz; not while the chair is silent), the base's condition on ``driver/status`` (on
 change and at ``whill.status_rate_hz``) and events on ``events/driver`` (the rider took
-or let go of the joystick, the command watchdog stopped the chair, a chair error). Runs
-on wall time only (``clock: wall``); the serial port is ``whill.port`` or ``--port``.
-On stopping it stops the chair and hands it back to its joystick.
+or let go of the joystick, the command watchdog stopped the chair, a chair error, the
+emergency stop). It obeys the emergency stop (shared/estop.py): a stop every cycle while
+it is active, whatever ``cmd_vel`` says. Runs on wall time only (``clock: wall``); the
+serial port is ``whill.port`` or ``--port``. On stopping it stops the chair and hands it
+back to its joystick.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import sys
 from services.whill_driver.config import whill_section
 from services.whill_driver.driver import Driver
 from shared.config import ConfigError
+from shared.estop import EstopLatch, hold_estop
 from shared.messages import Clock, Event, Twist
 from shared.service import EXIT_CONFIG, Service
 
@@ -61,6 +64,9 @@ def main(argv: list[str] | None = None) -> None:
         status_key = svc.declare("publishes", keys.driver_status)
         events_key = svc.declare("publishes", keys.key("events", source=NAME))
 
+        def on_estop(latch: EstopLatch) -> None:
+            driver.on_estop(latch.stop.active, latch.reason())
+
         def step(clock: Clock) -> None:
             out = driver.step(clock.stamp)
             if out.odometry is not None:
@@ -72,6 +78,7 @@ def main(argv: list[str] | None = None) -> None:
                 bus.publish(events_key, Event(clock.stamp, NAME, kind, detail, severity))
 
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, driver.on_cmd_vel)
+        hold_estop(bus, keys, NAME, svc.log, on_estop)
         svc.log.info("serial port %s, data every %d ms", whill.port, whill.data_interval_ms)
         driver.start()
         try:

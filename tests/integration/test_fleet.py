@@ -240,9 +240,11 @@ def fleet_wall_time(router, tmp_path):
     yield from _fleet(router, tmp_path, DEMO, lockstep=False)
 
 
-def _fleet(router, tmp_path, scenario_path: Path, lockstep: bool = True):
+def _fleet(
+    router, tmp_path, scenario_path: Path, lockstep: bool = True, overrides: tuple[str, ...] = ()
+):
     bus, endpoint = router
-    scenario = load_scenario(scenario_path)
+    scenario = load_scenario(scenario_path, list(overrides))
     cfg_path = tmp_path / "fleet.yaml"
     import yaml
 
@@ -511,3 +513,31 @@ def test_a_killed_navigator_takes_the_mission_up_again_on_wall_time(fleet_wall_t
     with heard.lock:
         events = list(heard.seen["events"])
     assert any(e.kind == "resumed" and "planning again" in e.detail for e in events), events
+
+
+@pytest.mark.e2e
+@pytest.mark.parametrize("offset_s", [3600.0, -3600.0])
+def test_a_chair_whose_clock_is_an_hour_off_is_never_judged_stale(
+    router, tmp_path, offset_s: float
+) -> None:
+    """Issue 16 item 3: on wall time the chair's odom and scan come stamped from the
+    driver's clock, here an hour ahead of or behind the fleet's; staleness is judged by
+    arrival on each receiver's clock, so no pose is stale and the demo succeeds (before:
+    every pose stale, the chair never moved)."""
+    from shared.messages import Event
+
+    overrides = ("clock=wall", f"sim.stamp_offset_s={offset_s}")
+    fleet = _fleet(router, tmp_path, DEMO, lockstep=False, overrides=overrides)
+    running = next(fleet)
+    try:
+        bus, _endpoint, _sup, keys, scenario, _out = running
+        heard = _heard(running)
+        heard.keep("events", keys.key("events", source="navigator"), Event)
+        bus.publish(keys.nav_goal, NavGoal(0.0, "clock-off", None, scenario.place))
+        done = heard.mission_end("clock-off")
+        assert done.state == "succeeded", done.reason
+        with heard.lock:
+            stale = [e for e in heard.seen["events"] if "stale_pose" in e.detail]
+        assert stale == [], stale
+    finally:
+        fleet.close()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import signal
 import sys
 import threading
@@ -10,11 +11,14 @@ from pathlib import Path
 
 from services.viz.sink_args import add_sink_arguments
 from shared import config as config_mod
+from shared.credentials import secure_endpoint
 from shared.service import add_override_argument, add_transport_arguments
 from shared.topics import Keys
 from wheelnav.launcher.compose import render_compose
 from wheelnav.launcher.fleet import PROFILES, services_for
 from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
+from wheelnav.security import store
+from wheelnav.security.store import router_access_control
 
 COMPOSE_FILE = Path(__file__).resolve().parents[2] / "docker-compose.yml"
 
@@ -34,6 +38,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         metavar="ENDPOINT",
         help="router endpoint (default: launcher.router_listen, tcp/127.0.0.1:7447); "
         "use tcp/0.0.0.0:7447 to let a laptop connect",
+    )
+    p.add_argument(
+        "--security",
+        metavar="DIR",
+        help="run secured on the credentials of `wheelnav security init DIR` (default: "
+        "transport.security.dir; without either the fleet runs insecure, for development)",
     )
     p.set_defaults(run=run_up)
     c = sub.add_parser(
@@ -68,19 +78,51 @@ def run_viz(args: argparse.Namespace) -> int:
     return 0
 
 
+def security_banner(listen: str, security_dir: str, robot: str, identities: int) -> str:
+    """The one line ``wheelnav up`` says about security: secured how, or insecure and so."""
+    if not security_dir:
+        return (
+            f"WARNING: insecure: no authentication nor access control on {listen}; any "
+            "client that reaches it can send goals and velocities (development only; "
+            "see docs/security.md, `wheelnav up --security DIR`)"
+        )
+    return (
+        f"secured: mutual TLS, user/password and access control for {robot} "
+        f"({identities} identities in {security_dir}; deny by default)"
+    )
+
+
+def secured_router(security: str, listen: str, robot: str) -> tuple[str, str, dict, int]:
+    """For a secured ``up``: the credentials folder (absolute, for the services), the
+    router's TLS endpoint, its access control for ``robot`` and how many identities it
+    admits. ConfigError with one line when ``security`` is not a credentials folder."""
+    if not Path(security).is_dir():
+        raise config_mod.ConfigError(f"--security {security}: no such directory")
+    folder = str(Path(security).resolve())
+    manifest = store.load(folder)
+    access = router_access_control(manifest, robot)
+    return folder, secure_endpoint(listen), access, len(manifest.identities)
+
+
 def run_up(args: argparse.Namespace) -> int:
     cfg = config_mod.load(args.config, args.overrides)
     listen = args.listen or cfg.launcher.router_listen
-    connect = listen.replace("0.0.0.0", "127.0.0.1")
     extra = [a for o in args.overrides for a in ("--set", o)]
+    security = args.security or cfg.transport.security.dir
+    access, identities = None, 0
+    if security:
+        security, listen, access, identities = secured_router(security, listen, cfg.robot.name)
+        extra += ["--set", f"transport.security.dir={json.dumps(security)}"]
+    connect = listen.replace("0.0.0.0", "127.0.0.1")
     specs = services_for(args.profile)
     if args.profile == "hardware":
         extra += ["--set", "clock=wall"]
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    bus = open_router(listen)
+    bus = open_router(listen, security, access)
     sup = Supervisor(specs, connect, cfg.launcher, args.config, extra)
+    sup.say(security_banner(listen, security, cfg.robot.name, identities))
     sup.say(f"router listening on {listen}; starting {', '.join(s.name for s in specs)}")
     sup.start()
     try:

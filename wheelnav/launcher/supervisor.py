@@ -18,7 +18,8 @@ import time
 from dataclasses import dataclass, field
 from typing import TextIO
 
-from shared.config import LauncherConfig, TransportConfig
+from shared.config import LauncherConfig, SecurityConfig, TransportConfig
+from shared.credentials import ROUTER
 from shared.service import EXIT_CONFIG, RESTARTS_ENV, launcher_env
 from shared.state_store import STATE_DIR_ENV
 from shared.topics import Keys
@@ -27,11 +28,13 @@ from wheelnav.launcher.backoff import Backoff, prefix
 from wheelnav.launcher.fleet import ServiceSpec
 
 
-def open_router(listen: str) -> Bus:
-    """A bus on a Zenoh session in router mode listening on ``listen`` (loopback by default)."""
-    return Bus(
-        open_session(TransportConfig(mode="router", connect=[], listen=[listen])), "launcher"
+def open_router(listen: str, security_dir: str = "", access_control: dict | None = None) -> Bus:
+    """A bus on a Zenoh session in router mode listening on ``listen`` (loopback by default);
+    secured by the router's credentials in ``security_dir`` and ``access_control`` if given."""
+    transport = TransportConfig(
+        mode="router", connect=[], listen=[listen], security=SecurityConfig(dir=security_dir)
     )
+    return Bus(open_session(transport, ROUTER, access_control), "launcher")
 
 
 @dataclass

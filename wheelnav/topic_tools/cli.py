@@ -9,18 +9,23 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import os
 import sys
 import threading
 import time
 from collections import defaultdict
+from pathlib import Path
 
 from shared.codec import DecodeError, decode, peek_tag, to_plain
-from shared.config import TransportConfig
+from shared.config import ConfigError, SecurityConfig, TransportConfig
 from shared.messages import TreeSnapshot
 from shared.topics import ROOT, Keys
 from shared.transport import Bus, open_session
 from shared.tree_text import render_tree
 from wheelnav.topic_tools.summary import RateMeter, summarise
+
+SECURITY_ENV = "WHEELNAV_SECURITY"  # default of --security: a terminal exports it once
+USER_ENV = "WHEELNAV_USER"  # default of --user
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -83,18 +88,45 @@ def run_tree(args: argparse.Namespace) -> int:
 
 
 def add_connect_argument(p: argparse.ArgumentParser) -> None:
-    """``--connect ENDPOINT``: the router a terminal command reaches (local by default)."""
+    """``--connect ENDPOINT`` (the router a terminal command reaches, local by default) and
+    the credentials of a secured fleet: ``--security DIR --user NAME``."""
     p.add_argument(
         "--connect",
         metavar="ENDPOINT",
         default="tcp/127.0.0.1:7447",
-        help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local)",
+        help="router to reach, e.g. tcp/192.168.1.20:7447 (default: local; a secured "
+        "fleet is reached on tls/ at the same address)",
+    )
+    p.add_argument(
+        "--security",
+        metavar="DIR",
+        default=os.environ.get(SECURITY_ENV, ""),
+        help="credentials folder of a secured fleet (`wheelnav security init`; "
+        f"default: ${SECURITY_ENV})",
+    )
+    p.add_argument(
+        "--user",
+        metavar="NAME",
+        default=os.environ.get(USER_ENV, ""),
+        help=f"whose credentials in --security DIR, e.g. operator (default: ${USER_ENV})",
+    )
+
+
+def client_transport(args: argparse.Namespace) -> TransportConfig:
+    """The transport of a terminal command: a client of ``--connect``, secured by
+    ``--security`` (as ``--user``); ConfigError with one line when they do not fit."""
+    if args.security and not args.user:
+        raise ConfigError("--security needs --user NAME (whose credentials to use)")
+    if args.security and not Path(args.security).is_dir():
+        raise ConfigError(f"--security {args.security}: no such directory")
+    return TransportConfig(
+        mode="client", connect=[args.connect], security=SecurityConfig(dir=args.security)
     )
 
 
 def client_bus(args: argparse.Namespace, name: str = "topic") -> Bus:
-    """A client session on the router given by ``--connect``."""
-    return Bus(open_session(TransportConfig(mode="client", connect=[args.connect])), name)
+    """A client session on the router given by ``--connect``, as ``--user`` if secured."""
+    return Bus(open_session(client_transport(args), identity=args.user), name)
 
 
 def _bus(args: argparse.Namespace) -> Bus:

@@ -23,7 +23,14 @@ from services.whill_driver.config import WhillConfig
 from services.whill_driver.driver import Driver
 from services.whill_driver.odometry import Sample, WheelOdometry
 from shared.config import ConfigError
-from shared.messages import Diagnostics, DriverStatus, Odometry, Twist
+from shared.messages import (
+    Diagnostics,
+    DriverStatus,
+    EmergencyStop,
+    EmergencyStopQuery,
+    Odometry,
+    Twist,
+)
 from shared.topics import Keys
 from sim.whill_emulator import ChairModel, ChairParams, WhillEmulator
 from tests.conftest import PYTHON, ROOT
@@ -130,6 +137,30 @@ def test_the_rider_on_the_joystick_gets_the_chair_until_it_rests() -> None:
     assert [e[0] for e in base.drain_events()] == ["joystick_released"]
     base.on_cmd_vel(Twist(1.1, 0.1, 0.0), 1.1)
     assert base.step(1.1) == Action("velocity", 90, 0)
+
+
+def test_the_emergency_stop_stops_the_chair_whatever_cmd_vel_says() -> None:
+    base = fed_base(joystick_release_s=1.0)
+    base.on_estop(True, "emergency stop by test")
+    assert base.step(0.01) == STOP  # even before any command: the chair is held
+    base.on_cmd_vel(Twist(0.0, 0.3, 0.0), 0.02)
+    for t in (0.02, 0.1, 0.5):  # commands keep coming: a stop every cycle all the same
+        base.on_sample(sample(), t)
+        base.on_cmd_vel(Twist(t, 0.3, 0.0), t)
+        assert base.step(t) == STOP
+    kind, detail, severity = base.drain_events()[0]
+    assert (kind, severity) == ("emergency_stop", "warning") and "by test" in detail
+    base.on_sample(sample(joy=(40, 0)), 0.6)  # the rider's joystick still has the chair
+    assert base.step(0.6) == RELEASE
+    base.on_sample(sample(), 1.7)
+    assert base.step(1.7) == STOP  # let go: back to the stop, not to the command
+    base.on_estop(True)
+    base.drain_events()
+    base.on_estop(False)
+    assert base.step(1.8) is None  # cleared: the commands from before do not count
+    assert [e[0] for e in base.drain_events()] == ["emergency_stop"]
+    base.on_cmd_vel(Twist(1.9, 0.2, 0.0), 1.9)
+    assert base.step(1.9) == Action("velocity", 180, 0)
 
 
 def test_the_chairs_condition_is_reported() -> None:
@@ -298,6 +329,19 @@ def test_the_rider_taking_the_joystick_is_reported_and_given_the_chair(running) 
     wait_for(lambda: chair(emu, lambda c: c.serial_control and c.w > 0.4), "commands again")
 
 
+def test_the_emergency_stop_stops_the_chair_at_once(running) -> None:
+    emu, controller = running
+    controller.command = Twist(0.0, 0.4, 0.0)
+    wait_for(lambda: chair(emu, lambda c: c.v) > 0.3, "the chair driving")
+    controller.driver.on_estop(True, "emergency stop by test")
+    wait_for(lambda: chair(emu, lambda c: c.v) == 0.0, "the chair stopping")
+    time.sleep(0.2)  # commands keep coming: the chair stays where it stopped
+    assert chair(emu, lambda c: (c.v, c.last_velocity)) == (0.0, (0, 0))
+    assert "emergency_stop" in controller.events
+    controller.driver.on_estop(False)
+    wait_for(lambda: chair(emu, lambda c: c.v) > 0.3, "the chair driving again")
+
+
 def test_battery_speed_mode_and_errors_are_reported(running) -> None:
     emu, controller = running
     with emu.locked() as model:
@@ -370,6 +414,25 @@ def test_the_node_drives_the_chair_and_counts_bad_commands(router, emulator) -> 
         wait_for(driving, "odometry 0.2 m ahead")
         assert odometry[-1].frame == "odom" and odometry[-1].v > 0.1
         assert node.poll() is None  # bad commands did not end it
+
+        # the emergency stop: the chair stops while cmd_vel keeps coming, until cleared
+        bus.publish(keys.estop, EmergencyStop(time.time(), True, "test", "node test"))
+
+        def stopped() -> bool:
+            bus.publish(keys.cmd_vel, Twist(time.time(), 0.3, 0.0))
+            return bool(chair(emulator, lambda c: c.v == 0.0 and c.last_velocity == (0, 0)))
+
+        wait_for(stopped, "the chair stopped by the emergency stop")
+        state_key = keys.key("estop_state", service="driver")
+        held = bus.call(state_key, EmergencyStopQuery("test"), EmergencyStop, 5.0)
+        assert held.active and held.reason == "node test"
+        bus.publish(keys.estop, EmergencyStop(time.time(), False, "test"))
+
+        def moving() -> bool:
+            bus.publish(keys.cmd_vel, Twist(time.time(), 0.3, 0.0))
+            return bool(chair(emulator, lambda c: c.v > 0.1))
+
+        wait_for(moving, "the chair driving again once the stop is cleared")
         bus.publish(keys.cmd_vel, Twist(time.time(), 0.3, 0.0))
         node.send_signal(signal.SIGKILL)  # gone without a word, the chair driving
         node.wait(timeout=10)

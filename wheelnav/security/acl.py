@@ -1,0 +1,182 @@
+"""The router's access control, derived from the topic table (shared/topics.py).
+
+Who may do what is read from each row's publisher column (and, for a query, its
+subscriber column: the queryables), so a new topic needs no hand-written rule, only its
+publishers named in words this module knows (:data:`PHRASES`; an unknown word fails with
+the topic and the word). Two pure steps:
+
+- :func:`grants`: identity -> action -> keys, e.g. the controller may ``publish`` on
+  ``wheelnav/chair1/cmd_vel``; every identity may ``read`` ``wheelnav/**``.
+- :func:`access_control`: those grants as Zenoh 1.x ``access_control`` config, deny by
+  default; a subject per identity binds its certificate's common name to its username.
+
+A field ``{service}`` or ``{source}`` of the key is the identity's own name where it
+offers (publishes, holds a token, answers queries): a service publishes its diagnostics
+and holds its liveliness token on its own key only.
+"""
+
+from __future__ import annotations
+
+import re
+import string
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from shared.topics import ROOT, Keys, Topic
+
+SERVICE, OPERATOR, VIEWER = "service", "operator", "viewer"
+PERSON_ROLES = (OPERATOR, VIEWER)
+
+# Who the words of the table's publisher / queryable columns mean: service names, or a
+# group: "@operators" (people allowed to command the chair), "@services" (every service
+# identity), "@servers" (the services that answer this row's query themselves).
+PHRASES: dict[str, tuple[str, ...]] = {
+    "sim": ("sim",),
+    "building": ("building",),
+    "localisation": ("localisation",),
+    "planner": ("planner",),
+    "controller": ("controller",),
+    "navigator": ("navigator",),
+    "driver": ("driver",),
+    "chair driver": ("driver", "vlp16_driver"),
+    "mission": ("mission",),
+    "mission runner": ("mission",),
+    "user": ("@operators",),
+    "wheelnav stop": ("@operators",),
+    "any service": ("@services",),
+    "every service": ("@services",),
+    "a (re)starting holder": ("@servers",),
+}
+
+# action -> (flow, Zenoh message kinds) it needs, as the router sees them: a publisher's
+# puts come in; a reader's subscriptions come in, samples and tokens go out; a querier's
+# query comes in, replies go out; a queryable the reverse. Readers also hear of the others'
+# subscriptions: a client that hears of none stops sending puts, and a refused client's
+# puts should reach the router and be refused there, not rest on the client's goodwill.
+ACTIONS: dict[str, tuple[tuple[str, tuple[str, ...]], ...]] = {
+    "publish": (("ingress", ("put",)),),
+    "token": (("ingress", ("liveliness_token",)),),
+    "query": (("ingress", ("query",)), ("egress", ("reply",))),
+    "serve": (("ingress", ("declare_queryable", "reply")), ("egress", ("query",))),
+    "read": (
+        ("ingress", ("declare_subscriber", "declare_liveliness_subscriber", "liveliness_query")),
+        ("egress", ("put", "liveliness_token", "declare_subscriber")),
+    ),
+}
+OWN_FIELDS = ("service", "source")
+_QUALIFIER = re.compile(r"\s*\([^()]*\)$")  # a trailing "(get)", "(queryable)", ...
+_SEPARATOR = re.compile(r"\s*[,/]\s*(?![^()]*\))")  # "," or "/" outside parentheses
+
+
+@dataclass(frozen=True)
+class Identity:
+    """One holder of credentials: a service (by its name), an operator or a viewer."""
+
+    name: str
+    role: str
+
+
+Grants = dict[str, dict[str, list[str]]]
+
+
+def phrases(column: str) -> list[str]:
+    """The words of a table column: ``"navigator, user (get)"`` -> navigator, user."""
+    return [_QUALIFIER.sub("", p).strip() for p in _SEPARATOR.split(column) if p.strip()]
+
+
+def who(topic: Topic, column: str, identities: Iterable[Identity]) -> list[str]:
+    """The identities that ``column`` (a column of ``topic``'s row) names, in table order.
+
+    ValueError naming the topic and the word for a word :data:`PHRASES` does not know.
+    """
+    ids = list(identities)
+    groups = {
+        "@operators": [i.name for i in ids if i.role == OPERATOR],
+        "@services": [i.name for i in ids if i.role == SERVICE],
+    }
+    known = {i.name for i in ids}
+    out: list[str] = []
+    for phrase in phrases(column):
+        if phrase not in PHRASES:
+            raise ValueError(
+                f"topic {topic.name!r}: who is {phrase!r}? name it in wheelnav/security/acl.py "
+                "PHRASES"
+            )
+        for name in PHRASES[phrase]:
+            if name == "@servers" and column is not topic.subscribers:
+                members = who(topic, topic.subscribers, ids)
+            elif name == "@servers":
+                raise ValueError(f"topic {topic.name!r}: {phrase!r} in the queryable column")
+            else:
+                members = groups.get(name, [name] if name in known else [])
+            out += [m for m in members if m not in out]
+    return out
+
+
+def topic_key(keys: Keys, topic: Topic, owner: str | None) -> str:
+    """``topic``'s key; ``{service}``/``{source}`` is ``owner`` (None: any), others any."""
+    fields = {f for _, f, _, _ in string.Formatter().parse(topic.pattern) if f}
+    parts = {f: owner for f in OWN_FIELDS if f in fields and owner is not None}
+    return keys.key(topic.name, **parts)
+
+
+def grants(topics: Iterable[Topic], identities: Iterable[Identity], robot: str) -> Grants:
+    """identity -> action (:data:`ACTIONS`) -> sorted keys, for one robot's router."""
+    ids = list(identities)
+    keys = Keys(robot)
+    out: Grants = {i.name: {"read": [f"{ROOT}/**"]} for i in ids}
+
+    def allow(name: str, action: str, key: str) -> None:
+        held = out[name].setdefault(action, [])
+        if key not in held:
+            held.append(key)
+
+    for topic in topics:
+        if topic.kind == "query":
+            for name in who(topic, topic.publisher, ids):
+                allow(name, "query", topic_key(keys, topic, None))
+            for name in who(topic, topic.subscribers, ids):
+                allow(name, "serve", topic_key(keys, topic, name))
+        else:
+            action = "token" if topic.kind == "liveliness" else "publish"
+            for name in who(topic, topic.publisher, ids):
+                allow(name, action, topic_key(keys, topic, name))
+    return {name: {a: sorted(k) for a, k in acts.items()} for name, acts in out.items()}
+
+
+def access_control(granted: Mapping[str, Mapping[str, list[str]]]) -> dict:
+    """Zenoh ``access_control`` config for ``granted``: deny by default; per identity a
+    subject (certificate common name and username, both its name) and a policy."""
+    rules: list[dict] = []
+    policies: list[dict] = []
+    for name, actions in granted.items():
+        own = [
+            rule
+            for action, keys in actions.items()
+            if keys
+            for rule in _rules(f"{name}/{action}", action, keys)
+        ]
+        rules += own
+        policies.append({"id": name, "rules": [r["id"] for r in own], "subjects": [name]})
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": [
+            {"id": name, "cert_common_names": [name], "usernames": [name]} for name in granted
+        ],
+        "policies": policies,
+    }
+
+
+def _rules(prefix: str, action: str, keys: list[str]) -> list[dict]:
+    return [
+        {
+            "id": f"{prefix}/{flow}",
+            "permission": "allow",
+            "flows": [flow],
+            "messages": list(messages),
+            "key_exprs": list(keys),
+        }
+        for flow, messages in ACTIONS[action]
+    ]
