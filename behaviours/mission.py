@@ -209,15 +209,11 @@ def doorway(cp) -> np.ndarray | None:
     return np.array([[cx - ax, cy - ay, cx + ax, cy + ay]])
 
 
-def _correct(
-    cp, name: str, p: EntryParams, clock, record, reach_m: float = 0.0
-) -> py_trees.behaviour.Behaviour:
-    """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances;
-    ``reach_m``: the leg it docks instead of following, whose drive (and a manoeuvre in a
-    tight room, ``navigator.manoeuvre_allowance_s``) adds to the limit."""
-    a, nav = cp.approach, p.nav
-    dock = DockAt(
-        f"Correct {cp.id}",
+def _approach_dock(cp, nav: NavigatorConfig, name: str, fix: DoorFix | None = None) -> DockAt:
+    """Dock at the checkpoint's approach pose facing its approach heading (Phase 0)."""
+    a = cp.approach
+    return DockAt(
+        name,
         Phase.CORRECT,
         cp.floor,
         (a.x, a.y),
@@ -228,7 +224,38 @@ def _correct(
         nav.correction_attempts,
         nav.correction_stall_s,
         keep_out=doorway(cp),
+        fix=fix,
     )
+
+
+def _turn_to_exit(cp, nav: NavigatorConfig, name: str, fix: DoorFix | None = None) -> DockAt:
+    """Turn on the spot to face the checkpoint's exit pose (Phase 1)."""
+    a, e = cp.approach, cp.exit
+    return DockAt(
+        name,
+        Phase.TURN,
+        cp.floor,
+        (a.x, a.y),
+        None,
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        nav.turn_tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
+        face=(e.x, e.y),
+        keep_out=doorway(cp),
+        fix=fix,
+    )
+
+
+def _correct(
+    cp, name: str, p: EntryParams, clock, record, reach_m: float = 0.0
+) -> py_trees.behaviour.Behaviour:
+    """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances;
+    ``reach_m``: the leg it docks instead of following, whose drive (and a manoeuvre in a
+    tight room, ``navigator.manoeuvre_allowance_s``) adds to the limit."""
+    nav = p.nav
+    dock = _approach_dock(cp, nav, f"Correct {cp.id}")
     limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
     if reach_m > 0:
         return Timeout(name, dock, limit + nav.manoeuvre_allowance_s, clock, record)
@@ -248,20 +275,7 @@ def _door_steps(
     nav = p.nav
     a, e = cp.approach, cp.exit
     centre = (cp.centre.x, cp.centre.y) if cp.centre else None
-    turn = DockAt(
-        f"Turn {cp.id}",
-        Phase.TURN,
-        cp.floor,
-        (a.x, a.y),
-        None,
-        nav.correction_speed,
-        nav.position_tolerance_m,
-        nav.turn_tolerance_deg,
-        nav.correction_attempts,
-        nav.correction_stall_s,
-        face=(e.x, e.y),
-        keep_out=doorway(cp),
-    )
+    turn = _turn_to_exit(cp, nav, f"Turn {cp.id}")
     steps: list[py_trees.behaviour.Behaviour] = [
         _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m),
         Timeout(f"Phase 1 {cp.id}", turn, nav.correction_timeout_s, clock, record),
@@ -372,7 +386,7 @@ def _line_up(cp, p: EntryParams, clock, record, fix: DoorFix) -> py_trees.behavi
     """Once the door is seen open: find it in the scans (``fix``: its shift along the wall
     from the map) and, where it is not as mapped, dock at the moved approach pose and face
     the moved exit again."""
-    nav, a, e = p.nav, cp.approach, cp.exit
+    nav, a = p.nav, cp.approach
     locate = LocateDoor(
         cp.id,
         fix,
@@ -384,35 +398,8 @@ def _line_up(cp, p: EntryParams, clock, record, fix: DoorFix) -> py_trees.behavi
         nav.locate_min_shift_m,
         nav.locate_timeout_s,
     )
-    dock = DockAt(
-        f"Realign {cp.id}",
-        Phase.CORRECT,
-        cp.floor,
-        (a.x, a.y),
-        a.theta,
-        nav.correction_speed,
-        nav.position_tolerance_m,
-        nav.heading_tolerance_deg,
-        nav.correction_attempts,
-        nav.correction_stall_s,
-        keep_out=doorway(cp),
-        fix=fix,
-    )
-    turn = DockAt(
-        f"Turn again {cp.id}",
-        Phase.TURN,
-        cp.floor,
-        (a.x, a.y),
-        None,
-        nav.correction_speed,
-        nav.position_tolerance_m,
-        nav.turn_tolerance_deg,
-        nav.correction_attempts,
-        nav.correction_stall_s,
-        face=(e.x, e.y),
-        keep_out=doorway(cp),
-        fix=fix,
-    )
+    dock = _approach_dock(cp, nav, f"Realign {cp.id}", fix)
+    turn = _turn_to_exit(cp, nav, f"Turn again {cp.id}", fix)
     limit = nav.correction_timeout_s
     again = py_trees.composites.Sequence(
         f"Realign {cp.id} on the door seen",
