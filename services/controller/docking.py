@@ -81,6 +81,7 @@ SIDESTEP_RAD = math.radians(20)  # a sidestep backs up at most this far off the 
 SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a real move)
 SIDESTEP_REACH = 0.9  # and at most this share of reverse_reach_m (it must back up to it)
 SIDESTEPS = 2  # at most this many per goal
+GOALWARD_RAD = math.radians(15)  # driving within this of the goal heading ends on the goal
 FACE_REACH_M = 0.25  # nearer the goal itself the final stage and a sidestep beat facing it
 SHIFT_RAD = math.radians(45)  # turned this far off the goal heading: drive out what is across
 
@@ -384,7 +385,13 @@ class Docker:
         lim = self.limits
         direction = math.atan2(ey, ex)
         backwards = self._backwards_to(direction, dist)
-        if not self._fits(direction + (math.pi if backwards else 0.0), obstacles):
+        ahead = direction + (math.pi if backwards else 0.0)
+        # driving (nearly) the way the goal faces ends in the goal's own footprint: a point
+        # in it (a leaf a few cm beside the goal) is there whichever way the chair drives,
+        # and turning round to back up would flip back and forth as range noise moves the
+        # point across the margin (door bench: 20 s of half turns before a door)
+        goalward = angle_between(ahead, self.goal[2]) <= GOALWARD_RAD
+        if not goalward and not self._fits(ahead, obstacles):
             if not self._fits(direction + (0.0 if backwards else math.pi), obstacles):
                 return None
             backwards = self._backwards = not backwards

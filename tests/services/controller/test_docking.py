@@ -372,14 +372,19 @@ def test_far_from_the_goal_the_final_stage_does_not_shift_across() -> None:
     """Campaign b4.m04 at 618c17e: a target 2.1 m away that did not fit the margin sent
     the move stage to the final stage (boxed in both ways), whose drive along the heading
     to take out the error across, meant for a goal within reach, backed the chair 0.2 m
-    away from the corridor it was to enter. Far from the goal the final stage turns."""
+    away from the corridor it was to enter. Far from the goal it turns first (the move
+    stage towards the target, nearly the goal's heading, whose own footprint holds the
+    wall whichever way the chair drives there), and never backs away."""
     fp = RobotConfig().footprint
     wall = np.array([[0.37, y] for y in np.arange(-1.0, 1.0, 0.02)])  # 4.5 cm beside it
     docker = Docker(DOCK, fp, 0.05)
     docker.set_goal(0.0, 0.0, math.pi / 2)
     cmd = docker.step(0.2, -2.1, math.radians(10), obstacles=wall)
-    assert docker.stage == "final"
-    assert cmd.v == 0.0 and cmd.w > 0.0  # turning towards the goal heading, not driving
+    assert cmd.v == 0.0 and cmd.w > 0.0  # turning towards the goal, not driving
+    poses: list[tuple[float, float, float]] = []
+    end = drive(docker, 0.2, -2.1, math.radians(10), obstacles=wall, poses=poses)
+    assert end.arrived, end
+    assert min(y for _, y, _ in poses) >= -2.1 - 0.01  # never backed away from the goal
 
 
 def test_a_turn_is_not_sent_the_long_way_round_into_what_stands_behind() -> None:
@@ -520,3 +525,20 @@ def test_the_turn_check_keeps_the_wide_margin_until_a_manoeuvre_is_searched_for(
     assert docker.turn_margin(0.05, 0.02) == 0.02
     docker.clear()
     assert docker.turn_margin(0.05, 0.02) == 0.05
+
+
+def test_a_goal_beside_a_leaf_is_driven_to_facing_it_not_turned_round_for() -> None:
+    """Door bench (0.80 m hinged, map 10 cm off, stop-turn-go lining up on the door seen):
+    after the sidestep the goal lay 0.4 m ahead with an open leaf 3 cm beside the front of
+    a chair standing there. The footprint at the goal facing the way it drove held the
+    leaf, so the docker turned round to back up to it, and as range noise moved the
+    leaf's points in and out of its margin it flipped between the two for 20 s. Where the
+    goal's own footprint holds a point, the way of driving cannot avoid it: it drives to
+    the goal facing it."""
+    fp = RobotConfig().footprint
+    leaf = np.array([[x, fp.width / 2 + 0.03] for x in np.arange(0.42, 1.2, 0.02)])
+    docker = Docker(DOCK, fp, 0.05)
+    docker.set_goal(0.0, 0.0, 0.0)
+    end = drive(docker, -0.40, -0.01, 0.05, limit_s=20.0, obstacles=leaf)
+    assert end.arrived, end
+    assert end.turned < math.pi / 2, end  # never round to face away
