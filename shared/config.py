@@ -40,6 +40,17 @@ def check(rule):
     return {"check": rule}
 
 
+def check_fields(section: Any, prefix: str = "") -> None:
+    """Run the field rules of ``section`` (a dataclass built or changed in code); a
+    ConfigError naming the first bad key, ``prefix`` before it (``whill.port: empty``)."""
+    for f in dataclasses.fields(section):
+        rule = f.metadata.get("check")
+        value = getattr(section, f.name)
+        problem = rule(value) if rule else None
+        if problem:
+            raise ConfigError(f"{prefix}{f.name}: {problem}, got {value!r}")
+
+
 def _one_of(*choices: str):
     return check(
         lambda v: None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
@@ -307,12 +318,7 @@ class MPCConfig:
 
     def validate(self) -> None:
         """Raise ConfigError (a ValueError) on a setting the controller cannot run with."""
-        for f in dataclasses.fields(self):
-            rule = f.metadata.get("check")
-            value = getattr(self, f.name)
-            problem = rule(value) if rule else None
-            if problem:
-                raise ConfigError(f"{f.name}: {problem}, got {value!r}")
+        check_fields(self, "")
         if self.guide_fraction > 0 and not self.guide_offsets_m:
             raise ConfigError("guide_offsets_m: needs a lane when guide_fraction > 0")
 
@@ -657,12 +663,7 @@ class WhillConfig:
     def validate(self) -> None:
         """Run the field rules on a section built or changed in code; ConfigError naming
         the key (``whill.port: empty, got ''``)."""
-        for f in dataclasses.fields(self):
-            rule = f.metadata.get("check")
-            value = getattr(self, f.name)
-            problem = rule(value) if rule else None
-            if problem:
-                raise ConfigError(f"whill.{f.name}: {problem}, got {value!r}")
+        check_fields(self, "whill.")
 
 
 def _port(v: int) -> str | None:
@@ -700,12 +701,7 @@ class Vlp16Config:
 
     def validate(self) -> None:
         """Raise ConfigError naming the key on a setting the driver cannot run with."""
-        for f in dataclasses.fields(self):
-            rule = f.metadata.get("check")
-            value = getattr(self, f.name)
-            problem = rule(value) if rule else None
-            if problem:
-                raise ConfigError(f"vlp16.{f.name}: {problem}, got {value!r}")
+        check_fields(self, "vlp16.")
         if self.min_range_m >= self.max_range_m:
             raise ConfigError(
                 f"vlp16.min_range_m: must be < max_range_m ({self.max_range_m}), "
