@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
 import sys
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -29,3 +32,36 @@ def router() -> Iterator[tuple[Bus, str]]:
     bus = open_router(endpoint)
     yield bus, endpoint
     bus.close()
+
+
+def wheelnav(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run the ``wheelnav`` command as a user would, its output captured."""
+    return subprocess.run(
+        [PYTHON, "-m", "wheelnav.cli", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def start_up(
+    *args: str, ready_s: float = 60
+) -> tuple[subprocess.Popen, list[str], threading.Thread]:
+    """Start ``wheelnav up ARGS`` and wait (at most ``ready_s``) until it says "fleet up";
+    its output lines gather in the list, read by the thread."""
+    up = subprocess.Popen(
+        [PYTHON, "-m", "wheelnav.cli", "up", *args],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(up.stdout), daemon=True)
+    reader.start()
+    deadline = time.monotonic() + ready_s
+    while time.monotonic() < deadline and not any("fleet up" in ln for ln in lines):
+        assert up.poll() is None, "".join(lines)
+        time.sleep(0.1)
+    return up, lines, reader

@@ -19,7 +19,7 @@ import pytest
 
 from shared.messages import NavGoal, Odometry, Twist
 from shared.topics import Keys
-from tests.conftest import PYTHON, ROOT
+from tests.conftest import PYTHON, ROOT, start_up, wheelnav
 from wheelnav.launcher.fleet import services_for
 from wheelnav.launcher.supervisor import Supervisor, wait_ready
 from wheelnav.mission.run import MissionRun, free_port
@@ -29,33 +29,10 @@ pytestmark = pytest.mark.e2e
 DEMO = ROOT / "scenarios" / "demo.yaml"
 
 
-def wheelnav(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [PYTHON, "-m", "wheelnav.cli", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
-
-
 def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    up = subprocess.Popen(
-        [PYTHON, "-m", "wheelnav.cli", "up", "--listen", endpoint],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    lines: list[str] = []
-    reader = threading.Thread(target=lambda: lines.extend(up.stdout), daemon=True)
-    reader.start()
+    up, lines, reader = start_up("--listen", endpoint)
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not any("fleet up" in ln for ln in lines):
-            assert up.poll() is None, "".join(lines)
-            time.sleep(0.1)
         assert any("fleet up" in ln for ln in lines), "".join(lines)
         keys = Keys("chair1")
 

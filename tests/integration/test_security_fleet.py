@@ -5,26 +5,13 @@ refused, and a viewer's goal starts nothing (beside the operator's, which does).
 from __future__ import annotations
 
 import signal
-import subprocess
-import threading
-import time
 
 import pytest
 
-from tests.conftest import PYTHON, ROOT
+from tests.conftest import start_up, wheelnav
 from wheelnav.mission.run import free_port
 
 pytestmark = pytest.mark.e2e
-
-
-def wheelnav(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [PYTHON, "-m", "wheelnav.cli", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
 
 
 def test_a_secured_fleet_runs_an_operators_mission_and_refuses_others(tmp_path) -> None:
@@ -32,21 +19,8 @@ def test_a_secured_fleet_runs_an_operators_mission_and_refuses_others(tmp_path) 
     made = wheelnav("security", "init", keys)
     assert made.returncode == 0, made.stdout + made.stderr
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    up = subprocess.Popen(
-        [PYTHON, "-m", "wheelnav.cli", "up", "--listen", endpoint, "--security", keys],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    lines: list[str] = []
-    reader = threading.Thread(target=lambda: lines.extend(up.stdout), daemon=True)
-    reader.start()
+    up, lines, reader = start_up("--listen", endpoint, "--security", keys, ready_s=180)
     try:
-        deadline = time.monotonic() + 180
-        while time.monotonic() < deadline and not any("fleet up" in ln for ln in lines):
-            assert up.poll() is None, "".join(lines)
-            time.sleep(0.2)
         assert any("fleet up" in ln for ln in lines), "".join(lines)
         assert any("secured: mutual TLS" in ln for ln in lines)
         assert not any("insecure" in ln for ln in lines)
