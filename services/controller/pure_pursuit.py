@@ -76,7 +76,11 @@ class PathFollower:
         goal = self._pts[-1]
         to_goal = float(math.hypot(goal[0] - x, goal[1] - y))
         progress = self._progress_s / total if total > 0 else 1.0
-        if self._arrived or (to_goal <= self.cfg.goal_tolerance_m and progress > 0.5):
+        tol = self.cfg.goal_tolerance_m
+        # half way along, or near the end of a path hardly longer than the tolerance (a
+        # loop back to its start is not over at its start)
+        near_end = progress > 0.5 or total - self._progress_s <= 2 * tol
+        if self._arrived or (to_goal <= tol and near_end):
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, to_goal, cross)
         if not pose_fresh:

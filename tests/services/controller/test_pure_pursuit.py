@@ -75,3 +75,14 @@ def test_drives_a_path_backwards() -> None:
     assert cmd.state == "arrived" and abs(x + 2.0) <= 0.15
     assert max(speeds) <= 0 and min(speeds) >= -RobotConfig().max_reverse_speed
     assert abs(th) < 0.1  # never turned round
+
+
+def test_a_path_shorter_than_the_goal_tolerance_ends_at_once() -> None:
+    # campaign b1003.m04: a re-plan after a recovery gave a 0.156 m leg; the chair stood
+    # within the goal tolerance of its end, so it was given no speed, but not half way
+    # along it, so it was never "arrived": it stood "following" for 357 s until the
+    # mission's limit.
+    f = PathFollower(ControllerConfig(), RobotConfig())
+    f.set_path("p", np.array([[0.0, 0.0], [0.08, 0.06], [0.13, 0.06]]), np.array([0.5, 0.5, 0.0]))
+    cmd = f.step(0.0, 0.0, 0.2)
+    assert cmd.state == "arrived", cmd
