@@ -21,9 +21,9 @@ from shared.messages import DoorMode, Path, Phase
 class RequestDoor(FleetBehaviour):
     """Send a DoorRequest (OPEN or CLOSED) for ``door_id``. Always SUCCESS at once."""
 
-    def __init__(self, door_id: str, mode: int) -> None:
+    def __init__(self, door_id: str, mode: int, early: bool = False) -> None:
         word = "OPEN" if mode == DoorMode.OPEN else "CLOSED"
-        super().__init__(f"Request {door_id} {word}")
+        super().__init__(f"Request {door_id} {word}" + (" early" if early else ""))
         self.door_id, self.mode = door_id, mode
 
     def update(self) -> Status:

@@ -600,6 +600,13 @@ def _docked_instead(leg: Path, after_door: bool, nav) -> float:
     return 0.0
 
 
+def _opens_early(cp) -> bool:
+    """True if door ``cp`` is asked to open before the chair comes near it: a powered door
+    whose leaf sweeps the approach pose (campaign b1005.m08: a leaf opening towards a
+    chair that waited in a 2 m room between two doors swung into it)."""
+    return cp.kind == "door" and cp.door_type == "powered" and cp.controller and cp.in_sweep
+
+
 def create_route_tree(
     route: RouteReply,
     clock: Callable[[], float],
@@ -619,10 +626,17 @@ def create_route_tree(
     nav = params.nav
     route_id = route.path.path_id if route.path is not None else "route"
     steps: list[py_trees.behaviour.Behaviour] = []
+    door_at: dict[int, int] = {}  # checkpoint index -> its step's index
     for i, leg in enumerate(route.legs):
         cp = route.checkpoints[i] if i < len(route.checkpoints) else None
         after_door = i > 0 and route.checkpoints[i - 1].kind == "door"
         docked = _docked_instead(leg, after_door, nav) if cp is not None else 0.0
+        if cp is not None and _opens_early(cp):
+            # before the chair comes into the space its leaf sweeps: through the door
+            # before it (two doors in series), else along this leg
+            at = door_at[i - 1] if after_door else len(steps)
+            steps.insert(at, RequestDoor(cp.id, DoorMode.OPEN, early=True))
+            door_at = {k: v + (v >= at) for k, v in door_at.items()}
         if not docked:
             smooth = cp is not None and _smooth(cp, nav, docked)
             handover = nav.smooth_handover_m if smooth else 0.0
@@ -631,6 +645,7 @@ def create_route_tree(
         if cp is None:
             continue
         if cp.kind == "door":
+            door_at[i] = len(steps)
             steps.append(_door_steps(cp, route_id, params, clock, record, docked))
         else:
             riding = len(steps) == riding_at

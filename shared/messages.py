@@ -420,7 +420,7 @@ class RouteRequest(Msg):
     stamp: float = num(*STAMP, default=0.0)  # the asker's clock: unavailable marks expire
 
 
-@message("checkpoint", version=2)
+@message("checkpoint", version=3)
 @dataclass
 class Checkpoint(Msg):
     """A door or elevator between two legs of a route, with the poses to drive to.
@@ -442,6 +442,10 @@ class Checkpoint(Msg):
     to_floor: str = ""
     centre: Pose2D | None = None  # the door's (or car door's) middle, heading = approach's
     controller: bool = True  # the building reports this door (False: verified by LiDAR alone)
+    # the approach pose lies in the sweep of the door's hinged leaf (it opens towards the
+    # chair and the space before it is too shallow to wait behind it): a powered door is
+    # asked to open before the chair comes into that space
+    in_sweep: bool = False
 
 
 @message("route_reply", version=3)

@@ -54,6 +54,7 @@ class Checkpoint:
     to_floor: str = ""
     centre: tuple[float, float] = (0.0, 0.0)  # the door's (or car door's) middle
     controller: bool = True  # the building reports the door's state (else: LiDAR alone)
+    in_sweep: bool = False  # the approach pose lies in the sweep of a leaf opening towards it
 
 
 @dataclass
@@ -345,6 +346,7 @@ class RoutePlanner:
         towards_chair = door.motion == "hinged" and swings_left == (side < 0)
         leaf = width if towards_chair else 0.0
         before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, leaf)
+        in_sweep = leaf > 0 and before - room.front_m < leaf + room.margin_m
         after = exit_distance(depth(n), self.cfg.door_exit_m, room)
         line = np.asarray(door.pass_centre)  # the free opening's middle (hinged: a leaf in it)
         approach = self._free_point(line, -n, before, floor, door.id)
@@ -360,6 +362,7 @@ class RoutePlanner:
             width,
             centre=(float(centre[0]), float(centre[1])),
             controller=door.controller,
+            in_sweep=in_sweep,
         )
 
     def _free_point(

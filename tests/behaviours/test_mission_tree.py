@@ -381,6 +381,56 @@ def test_doors_in_series_are_one_passage_the_room_between_docked_not_followed(
     assert fleet.sent[-1].path_id == "Correct inner #1", fleet.sent[-1].path_id
 
 
+def test_a_powered_leaf_sweeping_the_approach_pose_opens_before_the_door_in_series() -> None:
+    # campaign b1005.m08 and b1009.m03 (collisions): in a 2 m room between two doors in
+    # series, the inner door's powered leaf opened towards the chair waiting at its
+    # approach pose, in the leaf's sweep, and swung into it. A door marked ``in_sweep`` is
+    # asked open before the chair passes the outer door, while it is still outside the
+    # room; its own request after the turn is kept (it renews the session).
+    blackboard()
+    fleet = ScriptedFleet(None)
+    outer = door(door_id="outer")
+    inner = Checkpoint(
+        "door",
+        "inner",
+        "1",
+        Pose2D(4.3, 0, 0, "1"),
+        Pose2D(6.5, 0, 0, "1"),
+        2.2,
+        "powered",
+        1.0,
+        in_sweep=True,
+    )
+    between = leg("r.1", (3.2, 0.0), (4.3, 0.0))
+    after = leg("r.2", (6.5, 0.0), (9.0, 0.0))
+    tree = route_tree(
+        RouteReply(True, leg("r"), legs=[leg("r.0"), between, after], checkpoints=[outer, inner]),
+        fleet,
+    )
+    tree.tick()
+    assert fleet.door_requests == [], "not while the chair is far from both doors"
+    fleet.arrive()  # leg 0 done: before the outer door
+    tree.tick()
+    assert fleet.door_requests == [("inner", DoorMode.OPEN)]
+    assert fleet.sent[-1].path_id == "Correct outer #1"
+
+
+def test_a_powered_door_whose_leaf_keeps_off_the_approach_pose_opens_when_the_chair_is_there() -> (
+    None
+):
+    blackboard()
+    fleet = ScriptedFleet(None)
+    inner = Checkpoint(
+        "door", "d1", "1", Pose2D(1, 0, 0, "1"), Pose2D(3.2, 0, 0, "1"), 2.2, "powered", 1.0
+    )
+    tree = route_tree(RouteReply(True, leg("r"), legs=[leg("r.0")], checkpoints=[inner]), fleet)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    assert fleet.door_requests == []
+    assert fleet.sent[-1].path_id == "Correct d1 #1"
+
+
 def lift_at(floor: str, session: str = "s1", mode: int = 2) -> LiftState:
     return LiftState(
         0.0, "lift_a", ["1", "2"], floor, floor, LiftDoor.OPEN, LiftMotion.STOPPED, mode, session

@@ -25,13 +25,15 @@ ROBOT = RobotConfig()
 STOP = ControllerConfig().stop_distance_m
 
 
-def make_site(folder: Path, walls, gaps, doors, size) -> object:
+def make_site(folder: Path, walls, gaps, doors, size, keys=None) -> object:
+    """A one-floor site; ``keys``: extra site keys per door id (type, motion, swing)."""
     write_map(draw(size, walls, gaps), folder, "floor1")
     site = {
         "name": "t",
         "floors": [{"name": "1", "elevation": 0.0, "map": "floor1.yaml"}],
         "doors": [
             {"id": i, "floor": "1", "p1": list(p1), "p2": list(p2), "type": "manual"}
+            | (keys or {}).get(i, {})
             for i, p1, p2 in doors
         ],
     }
@@ -95,6 +97,32 @@ def test_doors_in_series_leave_room_between_them(tmp_path: Path) -> None:
     assert inner.approach[0] + fp.front <= 5.5
     assert strip_free(site, outer.exit, fp.front, 0.0)  # closed inner door not reached
     assert strip_free(site, inner.approach, 0.0, fp.rear)
+
+
+@pytest.mark.parametrize("room_m, in_sweep", [(2.0, True), (3.6, False)])
+def test_a_leaf_that_sweeps_the_approach_pose_is_marked(
+    tmp_path: Path, room_m: float, in_sweep: bool
+) -> None:
+    # campaign b1005.m08: in a 2 m room between two doors in series, the inner door's
+    # powered leaf opens towards the chair; its approach pose lies in the leaf's sweep
+    # (there is no room to wait behind it) and the checkpoint says so, for the navigator
+    # to open the door before the chair comes into the room. In a deep room the pose
+    # stands behind the sweep instead.
+    t, x0 = 0.2, 4.0
+    x1 = x0 + room_m
+    walls = [(0, 0, 12, t), (0, 5 - t, 12, 5), (0, 0, t, 5), (12 - t, 0, 12, 5)]
+    walls += [(x0 - 0.1, 0, x0 + 0.1, 5), (x1 - 0.1, 0, x1 + 0.1, 5)]
+    gaps = [(x0 - 0.1, 2.0, x0 + 0.1, 3.0), (x1 - 0.1, 2.0, x1 + 0.1, 3.0)]
+    doors = [("outer", (x0, 2.0), (x0, 3.0)), ("inner", (x1, 2.0), (x1, 3.0))]
+    keys = {"inner": {"type": "powered", "motion": "hinged", "swing": "left"}}
+    site = make_site(tmp_path, walls, gaps, doors, (12, 5), keys)
+    route = routes_for(site).route((1.5, 2.5), "1", (x1 + 2.5, 2.5), "1")
+    outer, inner = route.checkpoints
+    assert not outer.in_sweep
+    assert inner.in_sweep is in_sweep
+    leaf = 1.0
+    front_to_plane = x1 - inner.approach[0] - ROBOT.footprint.front
+    assert (front_to_plane < leaf) is in_sweep
 
 
 @pytest.mark.parametrize("corridor_m", [1.5, 1.8])
