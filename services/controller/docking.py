@@ -327,6 +327,8 @@ class Docker:
             return Command(0.0, 0.0, "following", progress, dist, 0.0)
         if done and self._sidestep(x, y):
             return Command(0.0, 0.0, "following", progress, dist, 0.0)
+        if done and self._manoeuvre_across(x, y, theta):
+            return Command(0.0, 0.0, "following", progress, dist, 0.0)
         if done:
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
@@ -373,6 +375,18 @@ class Docker:
         self._sidesteps += 1
         self._aim(*via, VIA_TOLERANCE_M, VIA_HEADING_RAD)
         return True
+
+    def _manoeuvre_across(self, x: float, y: float, theta: float) -> bool:
+        """At the goal with more than ``near_m`` across its heading and no room for a
+        sidestep (campaign b1004.m04: 0.157 m beside the line of the second of two doors in
+        series, the first door's jambs behind): plan a manoeuvre onto the goal, once. True
+        if one is under way; False (arrive as it stands) if none was found."""
+        gx, gy, gth = self._target
+        across = -(x - gx) * math.sin(gth) + (y - gy) * math.cos(gth)
+        if abs(across) <= self.limits.near_m or self._planned:
+            return False
+        self._plan(x, y, theta, self._obstacles)
+        return self.goal != self._target
 
     def _move(
         self, ex: float, ey: float, dist: float, theta: float, obstacles: np.ndarray | None
