@@ -504,6 +504,11 @@ class NavigatorConfig:
     # recoveries: held (obstacle, blocked) this long, back up, turn in place, re-plan
     recovery_wait_s: float = field(default=8.0, metadata=check(_positive))
     max_recoveries: int = field(default=3, metadata=check(_non_negative))
+    # held this far from where the recoveries so far began, the chair has got past that
+    # place: the count starts again (a mission gives up after max_recoveries in one place,
+    # and after max_recoveries * recovery_places in all)
+    recovery_reset_m: float = field(default=1.5, metadata=check(_positive))
+    recovery_places: int = field(default=3, metadata=check(_positive))
     backup_m: float = field(default=0.4, metadata=check(_positive))
     recovery_move_timeout_s: float = field(default=10.0, metadata=check(_positive))
     min_follow_speed: float = field(default=0.1, metadata=check(_positive))

@@ -117,7 +117,9 @@ class Navigator:
         self.status = NavStatus(0.0, "", "idle")
         self.driving = False  # False: the plan tree runs; True: the route tree
         self.replans = 0
-        self.recoveries = 0
+        self.recoveries = 0  # in the place where they began (recovery_reset_m)
+        self.recoveries_in_all = 0
+        self.recovery_place: tuple[float, float, str] | None = None
         self.recovering = False  # the recovery tree runs (between a hold and a re-plan)
         self.around_marks = False  # the plan tree runs a re-plan around marked points
         self.fallbacks: list[str] = []
@@ -204,7 +206,8 @@ class Navigator:
         self.fleet.new_mission(msg.goal_id)
         self.avoided = []
         self.replans = 0
-        self.recoveries = 0
+        self.recoveries = self.recoveries_in_all = 0
+        self.recovery_place = None
         self.fallbacks = []
         self.around_marks = False
         self.holds.paused = ""  # a new goal is asked for: the rider's pause (if any) ends
@@ -359,7 +362,11 @@ class Navigator:
         cause, self.bb.recover = self.bb.recover, ""
         est = self.fleet.pose()
         where = f" at ({est.pose.x:.2f}, {est.pose.y:.2f})" if est is not None else ""
-        if self.recoveries >= self.cfg.max_recoveries:
+        self._new_place(est)
+        if (
+            self.recoveries >= self.cfg.max_recoveries
+            or self.recoveries_in_all >= self.cfg.max_recoveries * self.cfg.recovery_places
+        ):
             self.fleet.stop()
             self.fleet.event("recovery", f"given up: {cause}{where}")
             failure = (
@@ -369,6 +376,7 @@ class Navigator:
             self._set("failed", reason="; then ".join([*self.fallbacks, failure]))
             return
         self.recoveries += 1
+        self.recoveries_in_all += 1
         marked = self.fleet.mark_blocking()
         self.log.warning(
             "held (%s)%s: recovery %d of %d", cause, where, self.recoveries, self.cfg.max_recoveries
@@ -392,6 +400,25 @@ class Navigator:
             )
         )
         self._set("running", phase=Phase.RECOVER, action="recover")
+
+    def _new_place(self, est) -> None:
+        """Start the recovery count again if the chair is held ``recovery_reset_m`` or more
+        from where the recoveries so far began (campaign b1011.m03: three spent threading a
+        gap between two cupboards, then none left for a hold 2 m further on); the first
+        hold's place is where a count begins."""
+        if est is None:
+            return
+        here = (est.pose.x, est.pose.y, est.pose.floor)
+        place = self.recovery_place
+        if place is not None and place[2] == here[2]:
+            away = math.hypot(here[0] - place[0], here[1] - place[1])
+            if away < self.cfg.recovery_reset_m:
+                return
+            if self.recoveries:
+                self.fleet.event(
+                    "recovery", f"held {away:.1f} m on from the last recoveries: count anew"
+                )
+        self.recovery_place, self.recoveries = here, 0
 
     def _after_recovery(self) -> None:
         self.recovering = False

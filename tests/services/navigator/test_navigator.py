@@ -270,6 +270,49 @@ def test_blocked_tries_recoveries_in_order_then_stops_with_the_reason() -> None:
     assert "2 recoveries" in nav.status.reason
 
 
+def hold_until_replanned(nav: Navigator, fleet: ScriptedFleet) -> None:
+    """Report "blocked" and run the recovery it starts (its moves done at once) until the
+    re-plan, or the end of the mission."""
+    fleet.follow = FollowStatus(fleet.t, fleet.sent[-1].path_id, "blocked", 0.2, 1.8, 0.0)
+    asked = len(fleet.route_requests)
+    while nav.status.state == "running" and len(fleet.route_requests) == asked:
+        fleet.t += 0.5
+        step(nav, fleet)
+        last = fleet.sent[-1]
+        if last.reverse or last.dock_heading is not None:
+            fleet.arrive()
+            step(nav, fleet)
+            fleet.follow = FollowStatus(fleet.t, "x", "blocked", 0.2, 1.8, 0.0)
+    step(nav, fleet)
+
+
+def test_held_again_further_on_the_recoveries_count_anew_up_to_a_bound() -> None:
+    # campaign b1011.m03: three recoveries went on threading a 0.9 m gap between two
+    # cupboards, which the chair then passed; held again 2 m on, it had none left and the
+    # mission failed there. The count is per place; a mission still ends after
+    # max_recoveries * recovery_places in all.
+    fleet = ScriptedFleet(AROUND)
+    nav, _out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0, recovery_places=2)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    hold_until_replanned(nav, fleet)  # the first place: its one recovery
+    assert nav.status.state == "running", nav.status.reason
+    fleet.x += 2.0  # through the gap
+    hold_until_replanned(nav, fleet)
+    assert nav.status.state == "running", nav.status.reason
+    assert any("count anew" in d for k, d in fleet.events if k == "recovery"), fleet.events
+    hold_until_replanned(nav, fleet)  # held again in the same place: none left here
+    assert nav.status.state == "failed" and "1 recoveries" in nav.status.reason
+    fleet2 = ScriptedFleet(AROUND)
+    nav2, _ = navigator(fleet2, max_recoveries=1, recovery_wait_s=5.0, recovery_places=2)
+    nav2.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav2, fleet2)
+    for _ in range(3):  # a new place each time: two places' worth, then the bound
+        hold_until_replanned(nav2, fleet2)
+        fleet2.x += 2.0
+    assert nav2.status.state == "failed", nav2.status.reason
+
+
 def blocked_with_no_room_to_turn() -> tuple[Navigator, ScriptedFleet]:
     """A mission on its first leg, the controller reporting "blocked", no room to turn on
     the spot; one recovery allowed."""
