@@ -21,6 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# a chair whose front waits nearer than a leaf's length and this to the door plane is in
+# the leaf's sweep: the pose's tolerance (0.15 m), the leaf's thickness and a clearance
+# (campaign b1005.m00: a leaf passed 3 cm from a chair whose front was 2.5 cm outside it)
+LEAF_CLEAR_M = 0.25
+
 
 @dataclass(frozen=True)
 class PoseRoom:
@@ -74,11 +79,12 @@ def approach_distance(
 ) -> float:
     """How far before the door plane the pose point stands: ``preferred_m`` if the rear
     fits, else as far back as it fits, but never with the front past the plane, nor
-    within the sweep of a hinged leaf ``leaf_m`` long that opens towards the chair when
-    the rear still fits behind it."""
+    within the sweep of a hinged leaf ``leaf_m`` long that opens towards the chair (nor
+    within ``LEAF_CLEAR_M`` of it) when the rear still fits behind it."""
     least = room.front_m + room.margin_m
-    if leaf_m > 0 and room.front_m + leaf_m + room.rear_m + 2 * room.margin_m <= depth_before_m:
-        least += leaf_m
+    behind_leaf = room.front_m + leaf_m + LEAF_CLEAR_M
+    if leaf_m > 0 and behind_leaf + room.rear_m + room.margin_m <= depth_before_m:
+        least = behind_leaf
     most = depth_before_m - room.rear_m - room.margin_m
     return max(least, min(preferred_m, most))
 

@@ -26,7 +26,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from services.planner import errors
-from services.planner.door_poses import PoseRoom, approach_distance, exit_distance, free_depth
+from services.planner.door_poses import (
+    LEAF_CLEAR_M,
+    PoseRoom,
+    approach_distance,
+    exit_distance,
+    free_depth,
+)
 from services.planner.grid_planner import Plan, Planner, block_segment, with_open_leaves
 from services.planner.path_doors import detect_doors_along_path
 from services.planner.room_segmentation import RoomMap, segment_rooms
@@ -346,7 +352,7 @@ class RoutePlanner:
         towards_chair = door.motion == "hinged" and swings_left == (side < 0)
         leaf = width if towards_chair else 0.0
         before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, leaf)
-        in_sweep = leaf > 0 and before - room.front_m < leaf + room.margin_m
+        in_sweep = leaf > 0 and before - room.front_m < leaf + LEAF_CLEAR_M - 1e-6
         after = exit_distance(depth(n), self.cfg.door_exit_m, room)
         line = np.asarray(door.pass_centre)  # the free opening's middle (hinged: a leaf in it)
         approach = self._free_point(line, -n, before, floor, door.id)
