@@ -714,6 +714,62 @@ class Vlp16Config:
             )
 
 
+# ---- the building bridge to Open-RMF (the hardware profile) ----------------------------
+
+
+def _ros_name_token(token: str) -> bool:
+    return bool(token) and all(c.isascii() and (c.isalnum() or c == "_") for c in token)
+
+
+def _ros_namespace(v: str) -> str | None:
+    if v == "" or all(map(_ros_name_token, v.removeprefix("/").split("/"))):
+        return None
+    return "must be a ROS namespace such as building1 or /site/building1 (empty: none)"
+
+
+def _ros_domain(v: int) -> str | None:
+    return None if 0 <= v <= 232 else "must be a ROS domain id in [0, 232]"
+
+
+def _one_to_one(v: dict[str, str]) -> str | None:
+    seen: dict[str, str] = {}
+    for ours, theirs in v.items():
+        if not theirs:
+            return f"{ours!r} maps to an empty name"
+        if theirs in seen:
+            return f"{seen[theirs]!r} and {ours!r} both map to {theirs!r}"
+        seen[theirs] = ours
+    return None
+
+
+@dataclass
+class RmfBridgeConfig:
+    """The building bridge (services/rmf_bridge): doors and lifts of an Open-RMF building."""
+
+    # how the building's ROS 2 topics are named on Zenoh: "ros2dds" as zenoh-bridge-ros2dds
+    # routes them (<namespace>/<topic>), "rmw_zenoh" as ROS 2 nodes on rmw_zenoh_cpp
+    # publish them (<domain_id>/<namespace>/<topic>/<type>/<type hash>); docs/building-bridge.md
+    key_format: str = field(default="ros2dds", metadata=_one_of("ros2dds", "rmw_zenoh"))
+    # the ROS namespace the building's topics carry on Zenoh (zenoh-bridge-ros2dds's
+    # `namespace`, e.g. /building1; empty: none) and, for rmw_zenoh, its ROS_DOMAIN_ID
+    namespace: str = field(default="", metadata=check(_ros_namespace))
+    domain_id: int = field(default=0, metadata=check(_ros_domain))
+    # the building's names where they differ from the site's (site id -> Open-RMF name):
+    # doors, lifts, and floors (the building's level names, in lift states and requests)
+    door_names: dict[str, str] = field(default_factory=dict, metadata=check(_one_to_one))
+    lift_names: dict[str, str] = field(default_factory=dict, metadata=check(_one_to_one))
+    floor_names: dict[str, str] = field(default_factory=dict, metadata=check(_one_to_one))
+    # how often the requests this chair holds are checked against their leases
+    # (building.door_session_lease_s, building.lift_session_lease_s): an Open-RMF
+    # supervisor keeps a session until it is ended, so the bridge ends a silent one
+    lease_check_hz: float = field(default=1.0, metadata=check(_positive))
+
+    def validate(self) -> None:
+        """Run the field rules on a section built or changed in code; ConfigError naming
+        the key (``rmf_bridge.domain_id: must be ...``)."""
+        check_fields(self, "rmf_bridge.")
+
+
 @dataclass
 class FleetConfig:
     """The whole fleet's configuration."""
@@ -734,6 +790,7 @@ class FleetConfig:
     launcher: LauncherConfig = field(default_factory=LauncherConfig)
     whill: WhillConfig = field(default_factory=WhillConfig)
     vlp16: Vlp16Config = field(default_factory=Vlp16Config)
+    rmf_bridge: RmfBridgeConfig = field(default_factory=RmfBridgeConfig)
 
 
 # --------------------------------------------------------------------------------------

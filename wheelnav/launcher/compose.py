@@ -17,8 +17,9 @@ HEADER = """\
 #       the full simulated fleet (config deploy/fleet.sim.yaml)
 #   WHEELNAV_PROFILE=hardware docker compose --profile hardware up
 #       everything but the simulator and the building emulator, on wall time (config
-#       deploy/fleet.hardware.yaml), with the WHILL driver on /dev/ttyUSB0 and the VLP-16
-#       driver on UDP 2368 (docs/ARCHITECTURE.md, "Contract for a hardware driver")
+#       deploy/fleet.hardware.yaml), with the WHILL driver on /dev/ttyUSB0, the VLP-16
+#       driver on UDP 2368 (docs/ARCHITECTURE.md, "Contract for a hardware driver") and the
+#       building bridge to Open-RMF (docs/building-bridge.md)
 """
 
 

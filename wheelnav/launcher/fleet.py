@@ -68,6 +68,12 @@ SERVICES: tuple[ServiceSpec, ...] = (
         "VLP-16 LiDAR driver: UDP packets to scan",
         udp_ports=(2368,),
     ),
+    ServiceSpec(
+        "rmf_bridge",
+        "services.rmf_bridge.node",
+        ("hardware",),
+        "building bridge: the doors and lifts of an Open-RMF building (CDR over Zenoh)",
+    ),
 )
 PROFILES = ("sim", "hardware")
 

@@ -1,0 +1,187 @@
+"""Building bridge service: an Open-RMF building's doors and lifts on wheelnav's building keys.
+
+Where the building emulator serves the doors and lifts in simulation, this bridge serves
+them from a real building run by Open-RMF (docs/building-bridge.md): the chair's
+DoorRequest and LiftRequest on ``door_request`` / ``lift_request`` go out as CDR on the
+building's ``adapter_door_requests`` / ``adapter_lift_requests``, and each CDR message on
+``door_states`` / ``lift_states`` comes back as a DoorState / LiftState on ``door_state``
+/ ``lift_state``. The Open-RMF topics are reached as zenoh-bridge-ros2dds or rmw_zenoh
+names them (``rmf_bridge.key_format``, ``rmf_bridge.namespace``, ``rmf_bridge.domain_id``).
+Only the site's doors with a controller and its lifts, only this chair's requests
+(services/rmf_bridge/bridge.py). A request the chair stops renewing is ended when its lease
+runs out (``building.door_session_lease_s``, ``building.lift_session_lease_s``), and
+everything still held when the bridge stops. A bad message (malformed CDR, a value out of
+range, a door or lift the site does not list) is dropped, counted and logged: the first 10
+of each kind, then every 100th; an unlisted door or lift once per name (a building
+reports all its doors, the site may map only some). Runs on wall time only (``clock: wall``).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import zenoh
+
+from services.rmf_bridge.bridge import Outgoing, RmfBridge
+from services.rmf_bridge.errors import KINDS, BridgeError, UnknownName
+from services.rmf_bridge.ros_keys import (
+    DOOR_REQUESTS,
+    DOOR_STATES,
+    LIFT_REQUESTS,
+    LIFT_STATES,
+    ros_key,
+)
+from shared.config import ConfigError, FleetConfig
+from shared.messages import Clock, DoorRequest, LiftRequest
+from shared.service import EXIT_CONFIG, Service
+from shared.site import load_site
+
+NAME = "rmf_bridge"
+
+
+def make_bridge(cfg: FleetConfig) -> RmfBridge:
+    """The bridge for the fleet config's site and chair; ConfigError naming what is wrong."""
+    section = cfg.rmf_bridge
+    section.validate()
+    if cfg.clock != "wall":
+        raise ConfigError(f"clock: the building bridge runs on wall time, got {cfg.clock!r}")
+    site = load_site(cfg.site)  # SiteError is a ConfigError
+    try:
+        return RmfBridge(
+            robot=cfg.robot.name,
+            doors=[d.id for d in site.doors if d.controller],
+            lifts=[lift.id for lift in site.elevators],
+            floors=list(site.floors),
+            door_names=section.door_names,
+            lift_names=section.lift_names,
+            floor_names=section.floor_names,
+            door_lease_s=cfg.building.door_session_lease_s,
+            lift_lease_s=cfg.building.lift_session_lease_s,
+        )
+    except ValueError as exc:
+        raise ConfigError(f"rmf_bridge: {exc}") from None
+
+
+def main(argv: list[str] | None = None) -> None:
+    with Service(NAME, __doc__.splitlines()[0], argv) as svc:
+        cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+        try:
+            bridge = make_bridge(cfg)
+        except ConfigError as exc:
+            print(f"wheelnav-{NAME}: config error: {exc}", file=sys.stderr)
+            raise SystemExit(EXIT_CONFIG) from None
+        section = cfg.rmf_bridge
+        for names in (bridge.doors, bridge.lifts, bridge.floors):
+            if names.unused:
+                svc.log.warning(
+                    "rmf_bridge.%s_names: no such %s in the site (or none the building"
+                    " reports): %s",
+                    names.kind,
+                    names.kind,
+                    ", ".join(names.unused),
+                )
+        ros = {
+            t: ros_key(t, section.key_format, section.namespace, section.domain_id)
+            for t in (DOOR_STATES, DOOR_REQUESTS, LIFT_STATES, LIFT_REQUESTS)
+        }
+        # requests are few and each matters (an OPEN, an END_SESSION): block, never drop
+        publishers = {
+            t: bus.session.declare_publisher(
+                svc.declare("publishes", ros[t]), congestion_control=zenoh.CongestionControl.BLOCK
+            )
+            for t in (DOOR_REQUESTS, LIFT_REQUESTS)
+        }
+
+        def send(out: Outgoing) -> None:
+            publishers[out.topic].put(out.payload)
+            if out.why:
+                svc.log.warning("let go for the chair: %s", out.why)
+
+        unknown: set[str] = set()  # each door or lift the site does not list: logged once
+
+        def refused(where: str, exc: BridgeError) -> None:
+            n = bridge.counts[exc.kind]
+            if isinstance(exc, UnknownName):
+                if str(exc) in unknown:
+                    return
+                unknown.add(str(exc))
+            elif n > 10 and n % 100:
+                return
+            svc.log.warning("dropped a message on %s (%d %s so far): %s", where, n, exc.kind, exc)
+
+        def on_door_request(req: DoorRequest) -> None:
+            try:
+                out = bridge.door_request(req, time.time())
+            except BridgeError as exc:
+                refused(keys.key("door_request", door=req.door_name), exc)
+                return
+            if out is not None:
+                send(out)
+
+        def on_lift_request(req: LiftRequest) -> None:
+            try:
+                out = bridge.lift_request(req, time.time())
+            except BridgeError as exc:
+                refused(keys.key("lift_request", lift=req.lift_name), exc)
+                return
+            if out is not None:
+                send(out)
+
+        def on_door_state(key: str, payload: bytes) -> None:
+            try:
+                state = bridge.door_state(payload, time.time())
+            except BridgeError as exc:
+                refused(key, exc)
+                return
+            bus.publish(keys.key("door_state", door=state.door_name), state)
+
+        def on_lift_state(key: str, payload: bytes) -> None:
+            try:
+                state = bridge.lift_state(payload, time.time())
+            except BridgeError as exc:
+                refused(key, exc)
+                return
+            bus.publish(keys.key("lift_state", lift=state.lift_name), state)
+
+        def check_leases(clock: Clock) -> None:
+            for out in bridge.expire(clock.stamp):
+                send(out)
+
+        bus.subscribe(
+            svc.declare("subscribes", keys.key("door_request")), DoorRequest, on_door_request
+        )
+        bus.subscribe(
+            svc.declare("subscribes", keys.key("lift_request")), LiftRequest, on_lift_request
+        )
+        bus.subscribe_raw(svc.declare("subscribes", ros[DOOR_STATES]), on_door_state)
+        bus.subscribe_raw(svc.declare("subscribes", ros[LIFT_STATES]), on_lift_state)
+        svc.declare("publishes", keys.key("door_state"))
+        svc.declare("publishes", keys.key("lift_state"))
+        svc.log.info(
+            "%d doors, %d lifts of site %s; building keys: %s",
+            len(bridge.doors),
+            len(bridge.lifts),
+            cfg.site,
+            section.key_format,
+        )
+        svc.every(section.lease_check_hz, check_leases)
+        try:
+            svc.wait()
+        finally:
+            with bus.lock:
+                for out in bridge.release_all(time.time()):
+                    send(out)
+            counts = bridge.counts
+            svc.log.info(
+                "%d states in, %d requests out, %d of other chairs, %d leases ended; dropped: %s",
+                counts["states_in"],
+                counts["requests_out"],
+                counts["foreign"],
+                counts["expired"],
+                ", ".join(f"{counts[k]} {k}" for k in KINDS),
+            )
+
+
+if __name__ == "__main__":
+    main()
