@@ -70,6 +70,17 @@ class Leases:
             if now - self._asked_at.get(("door", door_id), now) >= self.renew_s:
                 self.request_door(door_id, DoorMode.OPEN)
 
+    def release(self, checkpoint_id: str) -> bool:
+        """End the session of a lift or the open request of a door the mission gives up
+        on (it plans around it); False if it holds neither by that id."""
+        if checkpoint_id in self.lifts:
+            self.release_lift(checkpoint_id)
+            return True
+        if checkpoint_id in self.doors:
+            self.request_door(checkpoint_id, DoorMode.CLOSED)
+            return True
+        return False
+
     def release_all(self) -> list[str]:
         """End every lift session and door request still held (the mission ended); the
         ids released."""

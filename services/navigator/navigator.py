@@ -340,6 +340,7 @@ class Navigator:
             return False
         self.replans += 1
         self.avoid(blocked)
+        self.leases.release(blocked)  # not held open (or the car kept) for the rest
         self.log.warning(
             "%s failed (%s): planning around it (re-plan %d of %d)",
             blocked,

@@ -220,6 +220,26 @@ def test_a_phase_travels_as_its_plain_string() -> None:
     assert decode(encode(NavStatus(1.0, "g1", "idle", phase=Phase.IDLE))).phase == ""
 
 
+def test_a_powered_door_given_up_on_is_no_longer_held_open() -> None:
+    # a powered door asked open that never opened (stuck) is planned around; the mission
+    # no longer asks for it every lease_renew_s until it ends (it held the door's session
+    # in the building for the rest of the mission)
+    fleet = ScriptedFleet(None, routes=[route(door("powered")), AROUND])
+    nav, _out = navigator(fleet, lease_renew_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    through_the_door(nav, fleet)
+    assert ("d1", DoorMode.OPEN) in fleet.door_requests
+    fleet.t = 61.0
+    step(nav, fleet)  # d1 blocked: re-plan
+    assert fleet.door_requests[-1] == ("d1", DoorMode.CLOSED), fleet.door_requests
+    asked = len(fleet.door_requests)
+    for _ in range(30):
+        fleet.t += 1.0
+        step(nav, fleet)
+    assert fleet.door_requests[asked:] == [], "renewed after it was given up"
+
+
 def test_a_stuck_door_with_no_other_way_ends_with_that_reason() -> None:
     # issue 13 failure mode 6: a door stuck closed with no other way must end as "door X
     # did not open within N s; no other route", not as a safety stop or a planner error.
