@@ -110,39 +110,37 @@ def main(argv: list[str] | None = None) -> None:
                 return
             svc.log.warning("dropped a message on %s (%d %s so far): %s", where, n, exc.kind, exc)
 
-        def on_door_request(req: DoorRequest) -> None:
-            try:
-                out = bridge.door_request(req, time.time())
-            except BridgeError as exc:
-                refused(keys.key("door_request", door=req.door_name), exc)
-                return
-            if out is not None:
-                send(out)
+        def requests(convert, name: str, field: str):
+            """A handler sending the chair's requests out as ``convert`` makes them."""
 
-        def on_lift_request(req: LiftRequest) -> None:
-            try:
-                out = bridge.lift_request(req, time.time())
-            except BridgeError as exc:
-                refused(keys.key("lift_request", lift=req.lift_name), exc)
-                return
-            if out is not None:
-                send(out)
+            def on_request(req) -> None:
+                try:
+                    out = convert(req, time.time())
+                except BridgeError as exc:
+                    refused(keys.key(f"{name}_request", **{name: getattr(req, field)}), exc)
+                    return
+                if out is not None:
+                    send(out)
 
-        def on_door_state(key: str, payload: bytes) -> None:
-            try:
-                state = bridge.door_state(payload, time.time())
-            except BridgeError as exc:
-                refused(key, exc)
-                return
-            bus.publish(keys.key("door_state", door=state.door_name), state)
+            return on_request
 
-        def on_lift_state(key: str, payload: bytes) -> None:
-            try:
-                state = bridge.lift_state(payload, time.time())
-            except BridgeError as exc:
-                refused(key, exc)
-                return
-            bus.publish(keys.key("lift_state", lift=state.lift_name), state)
+        def states(convert, name: str, field: str):
+            """A handler publishing the building's states as ``convert`` reads them."""
+
+            def on_state(key: str, payload: bytes) -> None:
+                try:
+                    state = convert(payload, time.time())
+                except BridgeError as exc:
+                    refused(key, exc)
+                    return
+                bus.publish(keys.key(f"{name}_state", **{name: getattr(state, field)}), state)
+
+            return on_state
+
+        on_door_request = requests(bridge.door_request, "door", "door_name")
+        on_lift_request = requests(bridge.lift_request, "lift", "lift_name")
+        on_door_state = states(bridge.door_state, "door", "door_name")
+        on_lift_state = states(bridge.lift_state, "lift", "lift_name")
 
         def check_leases(clock: Clock) -> None:
             for out in bridge.expire(clock.stamp):
