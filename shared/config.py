@@ -90,6 +90,14 @@ class RobotConfig:
         return self.footprint.width / 2 + self.side_margin_m
 
 
+def _ip_address(v: str) -> str | None:
+    try:
+        ipaddress.IPv4Address(v)
+    except ValueError:
+        return "must be an IPv4 address"
+    return None
+
+
 def _existing_dir(v: str) -> str | None:
     return None if not v or Path(v).is_dir() else "no such directory"
 
@@ -153,8 +161,15 @@ class SimConfig:
     world_site: str = ""
     # on wall time (clock: wall) the chair's odom and scan are stamped as a driver would
     # stamp them, with this host's clock plus stamp_offset_s (a driver whose clock is that
-    # far off: staleness must not depend on it); on simulation time, with the sim's clock
+    # far off: staleness must not depend on it); on simulation time, with the sim's clock.
+    # On the hardware path the drivers stamp them: whill.stamp_offset_s, vlp16.stamp_offset_s
     stamp_offset_s: float = 0.0
+    # the hardware path (docs/hardware.md): the chair behind an emulated WHILL on a pseudo
+    # terminal linked at whill.port, the LiDAR's scans sent as VLP-16 packets over UDP to
+    # vlp16_host:vlp16.port; the drivers take cmd_vel and publish odom and scan, not the
+    # sim. Wall time only: clock wall, lockstep false, realtime_factor 1, lidar vlp16
+    hardware_path: bool = False
+    vlp16_host: str = field(default="127.0.0.1", metadata=check(_ip_address))
     lockstep: bool = True
     lockstep_timeout_s: float = field(default=5.0, metadata=check(_positive))
     lockstep_stages: list[list[str]] = field(
@@ -657,6 +672,9 @@ class WhillConfig:
     # the chair's build (WHILL's figures for the Model CR)
     wheel_radius_m: float = field(default=0.1325, metadata=check(_positive))
     track_m: float = field(default=0.496, metadata=check(_positive))
+    # for tests only (0 on a chair): the driver's stamps are its host's clock plus this, a
+    # host whose clock is that far off (receivers judge staleness by arrival)
+    stamp_offset_s: float = 0.0
     # which way each motor counts when the chair drives forwards (check at bring-up)
     left_wheel_sign: int = field(default=1, metadata=check(_sign))
     right_wheel_sign: int = field(default=-1, metadata=check(_sign))
@@ -676,11 +694,7 @@ def _port(v: int) -> str | None:
 
 
 def _ipv4(v: str) -> str | None:
-    try:
-        ipaddress.IPv4Address(v)
-    except ValueError:
-        return "must be an IPv4 address (0.0.0.0: every interface)"
-    return None
+    return _ip_address(v) and "must be an IPv4 address (0.0.0.0: every interface)"
 
 
 def _frame_name(v: str) -> str | None:
@@ -703,6 +717,9 @@ class Vlp16Config:
     frame: str = field(default="lidar", metadata=check(_frame_name))
     min_range_m: float = field(default=0.4, metadata=check(_non_negative))
     max_range_m: float = field(default=100.0, metadata=check(_positive))
+    # for tests only (0 on a chair): the scans' stamps are this host's clock plus this, a
+    # host whose clock is that far off (receivers judge staleness by arrival)
+    stamp_offset_s: float = 0.0
 
     def validate(self) -> None:
         """Raise ConfigError naming the key on a setting the driver cannot run with."""

@@ -7,7 +7,9 @@ returns. Deterministic for a given config and seed.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import pybullet as pb
@@ -131,10 +133,29 @@ class StepResult:
     events: list[str] = field(default_factory=list)
 
 
-class Simulation:
-    """Steps the chair on a site floor and measures collisions and clearance."""
+class Drive(Protocol):
+    """What moves the chair: its true ``state``, advanced by ``step(dt, now)``; and
+    whether its watchdog has stopped it."""
 
-    def __init__(self, cfg: FleetConfig, site: Site) -> None:
+    state: ChairState
+    watchdog_tripped: bool
+
+    def step(self, dt: float, now: float) -> ChairState: ...
+
+
+class Simulation:
+    """Steps the chair on a site floor and measures collisions and clearance.
+
+    ``drive``: made from the start state, what moves the chair instead of the simulated
+    one that obeys :meth:`command` (the hardware path's emulated WHILL, sim/wheel_drive.py).
+    """
+
+    def __init__(
+        self,
+        cfg: FleetConfig,
+        site: Site,
+        drive: Callable[[ChairState], Drive] | None = None,
+    ) -> None:
         sim, robot = cfg.sim, cfg.robot
         self.cfg = cfg
         s = sim.start
@@ -147,13 +168,17 @@ class Simulation:
                 self.world.add_floor(f.map, f.elevation, cfg.planner.unknown_is_occupied)
         self.rng = np.random.default_rng(sim.seed)
         start = ChairState(x, y, theta)
-        self.chair = Chair(
-            robot,
-            start,
-            sim.motor_lag_s,
-            sim.watchdog_s,
-            sim.caster_disturbance,
-            np.random.default_rng([sim.seed, 2]),
+        self.chair: Chair | Drive = (
+            Chair(
+                robot,
+                start,
+                sim.motor_lag_s,
+                sim.watchdog_s,
+                sim.caster_disturbance,
+                np.random.default_rng([sim.seed, 2]),
+            )
+            if drive is None
+            else drive(start)
         )
         odo_rng = np.random.default_rng([sim.seed, 1])  # its own stream: scans do not shift it
         self.odometry = WheelOdometry(

@@ -5,6 +5,13 @@ evaluation only the ground truth and a collision/clearance status. Listens for v
 commands; the chair's watchdog stops it when they stop coming. Standing in for the
 driver, it obeys the emergency stop (shared/estop.py): while it is active every command
 is taken as zero, so the chair brakes to a stop whatever ``cmd_vel`` says.
+
+On the hardware path (``sim.hardware_path``, sim/hardware_path.py) it stands in for the
+hardware instead: the drivers take ``cmd_vel`` (and the emergency stop) and publish
+``odom`` and ``scan``; the simulator moves the chair as an emulated WHILL on a pseudo
+terminal at ``whill.port`` executes the WHILL driver's commands, and sends its scans as
+VLP-16 packets to the VLP-16 driver. It holds the clock at 0 until the WHILL driver
+streams from the emulated chair.
 """
 
 from __future__ import annotations
@@ -12,7 +19,9 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 
+from shared.config import ConfigError
 from shared.estop import EstopLatch, hold_estop
 from shared.lockstep import Barrier, TickProfile
 from shared.messages import (
@@ -27,8 +36,9 @@ from shared.messages import (
     SimStatus,
     Twist,
 )
-from shared.service import Service
+from shared.service import EXIT_CONFIG, Service
 from shared.site import SiteError, load_site
+from sim.hardware_path import HardwarePath, check_hardware_path
 from sim.simulation import Simulation
 
 NAME = "sim"
@@ -64,61 +74,88 @@ def status_message(sim: Simulation, stamp: float) -> SimStatus:
 
 def main(argv: list[str] | None = None) -> None:
     with Service(NAME, __doc__.splitlines()[0], argv) as svc:
-        cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+        cfg = svc.cfg
         try:
-            sim = Simulation(cfg, load_site(cfg.sim.world_site or cfg.site))
-        except (SiteError, ValueError) as exc:
+            check_hardware_path(cfg)
+        except ConfigError as exc:
+            svc.log.error("config error: %s", exc)
+            raise SystemExit(EXIT_CONFIG) from None
+        hardware = None
+        try:
+            site = load_site(cfg.sim.world_site or cfg.site)
+            hardware = HardwarePath(cfg, svc.log) if cfg.sim.hardware_path else None
+            sim = Simulation(cfg, site, hardware.drive if hardware else None)
+        except (SiteError, ValueError, OSError) as exc:
+            if hardware is not None:
+                hardware.close()
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
-        barrier = Barrier(cfg.sim.lockstep_stages)
-        profile = TickProfile(barrier.n_stages, cfg.sim.dt)
-        wake = threading.Condition(bus.lock)
+        try:
+            _serve(svc, sim, hardware)
+        finally:
+            if hardware is not None:
+                hardware.close()
 
-        def on_cmd(msg: Twist) -> None:
-            if estop.active:
-                sim.command(0.0, 0.0)  # still a command: the watchdog is not what stops it
-            else:
-                sim.command(msg.v, msg.w)
 
-        def on_estop(latch: EstopLatch) -> None:
-            if latch.stop.active:
-                sim.command(0.0, 0.0)
+def _serve(svc: Service, sim: Simulation, hardware: HardwarePath | None) -> None:
+    """Wire the simulator to the bus, wait for the fleet, run until stopped. On the
+    hardware path the drivers take commands and the emergency stop, not the simulator."""
+    cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+    barrier = Barrier(cfg.sim.lockstep_stages)
+    profile = TickProfile(barrier.n_stages, cfg.sim.dt)
+    wake = threading.Condition(bus.lock)
 
-        def on_ack(msg: Ack) -> None:
-            barrier.ack(msg)
-            profile.ack(msg)
-            wake.notify_all()
+    def on_cmd(msg: Twist) -> None:
+        if estop.active:
+            sim.command(0.0, 0.0)  # still a command: the watchdog is not what stops it
+        else:
+            sim.command(msg.v, msg.w)
 
-        def on_alive(key: str, alive: bool) -> None:
-            barrier.set_alive(key.rsplit("/", 1)[-1], alive)
-            wake.notify_all()
+    def on_estop(latch: EstopLatch) -> None:
+        if latch.stop.active:
+            sim.command(0.0, 0.0)
 
-        def on_bodies(msg: BuildingBodies) -> None:
-            sim.set_door_openings(msg.doors, msg.door_openings)
-            sim.set_lifts(msg.lifts, msg.car_elevations, msg.lift_door_openings)
+    def on_ack(msg: Ack) -> None:
+        barrier.ack(msg)
+        profile.ack(msg)
+        wake.notify_all()
 
+    def on_alive(key: str, alive: bool) -> None:
+        barrier.set_alive(key.rsplit("/", 1)[-1], alive)
+        wake.notify_all()
+
+    def on_bodies(msg: BuildingBodies) -> None:
+        sim.set_door_openings(msg.doors, msg.door_openings)
+        sim.set_lifts(msg.lifts, msg.car_elevations, msg.lift_door_openings)
+
+    if hardware is None:
         estop = hold_estop(bus, keys, NAME, svc.log, on_estop)
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, on_cmd)
-        bus.subscribe(
-            svc.declare("subscribes", keys.key("building_bodies")), BuildingBodies, on_bodies
-        )
-        bus.subscribe(svc.declare("subscribes", keys.ack), Ack, on_ack)
-        bus.watch_alive(keys.key("alive"), on_alive)
-        for name in ("clock", "odom", "scan", "ground_truth", "sim_status", "sim_profile"):
-            svc.declare("publishes", keys.key(name))
+    bus.subscribe(svc.declare("subscribes", keys.key("building_bodies")), BuildingBodies, on_bodies)
+    bus.subscribe(svc.declare("subscribes", keys.ack), Ack, on_ack)
+    bus.watch_alive(keys.key("alive"), on_alive)
+    sensors = ("odom", "scan") if hardware is None else ()
+    for name in ("clock", *sensors, "ground_truth", "sim_status", "sim_profile"):
+        svc.declare("publishes", keys.key(name))
 
-        svc.ready()
-        _wait_for_fleet(svc, barrier, wake, cfg.sim.lockstep)
-        _run(svc, sim, barrier, wake, profile)
-        sim.close()
+    svc.ready()
+    linked = hardware.streaming if hardware is not None else None
+    _wait_for_fleet(svc, barrier, wake, cfg.sim.lockstep, linked)
+    _run(svc, sim, barrier, wake, profile, hardware)
+    sim.close()
 
 
 def _wait_for_fleet(
-    svc: Service, barrier: Barrier, wake: threading.Condition, lockstep: bool
+    svc: Service,
+    barrier: Barrier,
+    wake: threading.Condition,
+    lockstep: bool,
+    linked: Callable[[], bool] | None = None,
 ) -> None:
     """Hold the clock at 0 until the services in ``sim.start_after`` are up (bounded), in
     lockstep or free running (which started at once: a goal sent before the planner was up
-    ended a mission at 0.1 s).
+    ended a mission at 0.1 s); on the hardware path also until ``linked()`` (the WHILL
+    driver streams from the emulated chair: before, no odometry, so no pose).
 
     Lockstep participants count only once the barrier itself has seen their liveliness
     token: starting on a liveliness query's answer alone could run the first ticks
@@ -132,8 +169,9 @@ def _wait_for_fleet(
     while not svc.stop_event.is_set():
         if others - present:
             present |= {k.rsplit("/", 1)[-1] for k in svc.bus.alive(svc.keys.key("alive"), 0.2)}
+        unlinked = {"the WHILL driver's data stream"} if linked and not linked() else set()
         with wake:
-            missing = (participants - barrier.alive) | (others - present)
+            missing = (participants - barrier.alive) | (others - present) | unlinked
             if not missing:
                 svc.log.info("fleet present; starting the clock")
                 return
@@ -153,6 +191,7 @@ def _run(
     barrier: Barrier,
     wake: threading.Condition,
     profile: TickProfile,
+    hardware: HardwarePath | None = None,
 ) -> None:
     cfg, keys, bus = svc.cfg, svc.keys, svc.bus
     status_every = max(1, round(1.0 / (cfg.sim.status_rate_hz * cfg.sim.dt)))
@@ -170,13 +209,18 @@ def _run(
         t1 = clock()
         profile.physics_s += t1 - t0
         stamp = result.stamp
-        # the chair's sensors: stamped as a driver stamps them (its host's clock) on wall time
-        sensed = time.time() + cfg.sim.stamp_offset_s if cfg.clock == "wall" else stamp
-        if result.scan is not None:
-            bus.publish(keys.scan, PointCloud(sensed, "lidar", result.scan))
-        o = sim.odometry
-        # wheel odometry knows nothing of floors: the floor comes from the lift protocol
-        bus.publish(keys.odom, Odometry(sensed, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
+        if hardware is not None:  # the drivers publish the chair's sensors
+            if result.scan is not None:
+                hardware.send_scan(result.scan, time.time())
+        else:
+            # the chair's sensors: stamped as a driver stamps them (its host's clock) on wall
+            # time
+            sensed = time.time() + cfg.sim.stamp_offset_s if cfg.clock == "wall" else stamp
+            if result.scan is not None:
+                bus.publish(keys.scan, PointCloud(sensed, "lidar", result.scan))
+            o = sim.odometry
+            # wheel odometry knows nothing of floors: the floor comes from the lift protocol
+            bus.publish(keys.odom, Odometry(sensed, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
         bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
         events_key = keys.key("events", source=NAME)
         if result.new_collision:

@@ -3,7 +3,8 @@
 Listens for the sensor's packets on ``vlp16.port`` at ``vlp16.bind_address``, gathers and
 decodes them with velodyne_decoder (decode.py) and publishes each revolution on ``scan``
 (10 Hz at the sensor's default 600 rpm) in frame ``vlp16.frame``, x forward, y left, z up,
-stamped with this host's clock at the arrival of its last packet. A malformed datagram is
+stamped with this host's clock at the arrival of its last packet (plus
+``vlp16.stamp_offset_s``, for tests of a host whose clock is off). A malformed datagram is
 dropped, counted and logged (the first 10, then every 100th); the stream goes on. Holds its
 liveliness token once the port is bound. On wall time only: not a lockstep participant.
 """
@@ -41,7 +42,8 @@ def main(argv: list[str] | None = None) -> None:
                 return
             if rev is not None:
                 with bus.lock:
-                    bus.publish(scan_key, PointCloud(rev.stamp, cfg.frame, rev.points))
+                    stamp = rev.stamp + cfg.stamp_offset_s  # tests: a host clock that far off
+                    bus.publish(scan_key, PointCloud(stamp, cfg.frame, rev.points))
 
         try:
             receiver = UdpReceiver(

@@ -9,7 +9,8 @@ or let go of the joystick, the command watchdog stopped the chair, a chair error
 emergency stop). It obeys the emergency stop (shared/estop.py): a stop every cycle while
 it is active, whatever ``cmd_vel`` says. Runs on wall time only (``clock: wall``); the
 serial port is ``whill.port`` or ``--port``. On stopping it stops the chair and hands it
-back to its joystick.
+back to its joystick. Its stamps are this host's clock (plus ``whill.stamp_offset_s``, for
+tests of a host whose clock is off).
 """
 
 from __future__ import annotations
@@ -68,14 +69,15 @@ def main(argv: list[str] | None = None) -> None:
             driver.on_estop(latch.stop.active, latch.reason())
 
         def step(clock: Clock) -> None:
-            out = driver.step(clock.stamp)
+            stamp = clock.stamp + whill.stamp_offset_s  # this host's clock (tests: off by that)
+            out = driver.step(stamp)
             if out.odometry is not None:
                 bus.publish(odom_key, out.odometry)
             if out.status is not None:
                 bus.publish(status_key, out.status)
             for kind, detail, severity in out.events:
                 svc.log.log(LOG_LEVELS.get(severity, logging.WARNING), "%s: %s", kind, detail)
-                bus.publish(events_key, Event(clock.stamp, NAME, kind, detail, severity))
+                bus.publish(events_key, Event(stamp, NAME, kind, detail, severity))
 
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, driver.on_cmd_vel)
         hold_estop(bus, keys, NAME, svc.log, on_estop)

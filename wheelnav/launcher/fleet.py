@@ -32,39 +32,50 @@ SERVICES: tuple[ServiceSpec, ...] = (
     ServiceSpec(
         "sim",
         "services.sim.node",
-        ("sim",),
+        ("sim", "hardware_path"),
         "pybullet simulator: clock, odometry, LiDAR, collisions",
     ),
     ServiceSpec(
         "building",
         "services.building.node",
-        ("sim",),
+        ("sim", "hardware_path"),
         "building emulator: doors and lifts (Open-RMF protocol)",
     ),
     ServiceSpec(
-        "localisation", "services.localisation.node", ("sim", "hardware"), "pose on the floor map"
+        "localisation",
+        "services.localisation.node",
+        ("sim", "hardware", "hardware_path"),
+        "pose on the floor map",
     ),
-    ServiceSpec("planner", "services.planner.node", ("sim", "hardware"), "routes on the site maps"),
+    ServiceSpec(
+        "planner",
+        "services.planner.node",
+        ("sim", "hardware", "hardware_path"),
+        "routes on the site maps",
+    ),
     ServiceSpec(
         "controller",
         "services.controller.node",
-        ("sim", "hardware"),
+        ("sim", "hardware", "hardware_path"),
         "path tracking: velocity commands",
     ),
     ServiceSpec(
-        "navigator", "services.navigator.node", ("sim", "hardware"), "mission behaviour tree"
+        "navigator",
+        "services.navigator.node",
+        ("sim", "hardware", "hardware_path"),
+        "mission behaviour tree",
     ),
     ServiceSpec(
         "driver",
         "services.whill_driver.node",
-        ("hardware",),
+        ("hardware", "hardware_path"),
         "WHILL base driver: cmd_vel to the chair, odometry and status back",
         devices=("/dev/ttyUSB0",),
     ),
     ServiceSpec(
         "vlp16_driver",
         "services.vlp16_driver.node",
-        ("hardware",),
+        ("hardware", "hardware_path"),
         "VLP-16 LiDAR driver: UDP packets to scan",
         udp_ports=(2368,),
     ),
@@ -75,7 +86,9 @@ SERVICES: tuple[ServiceSpec, ...] = (
         "building bridge: the doors and lifts of an Open-RMF building (CDR over Zenoh)",
     ),
 )
-PROFILES = ("sim", "hardware")
+# hardware_path: the simulator (with sim.hardware_path) behind the drivers' serial and UDP
+# links, on wall time on one host (a pseudo terminal joins sim and driver): docs/hardware.md
+PROFILES = ("sim", "hardware", "hardware_path")
 
 
 def viz_recorder(rrd_path: str) -> ServiceSpec:

@@ -5,6 +5,11 @@ the sim profile around it, joins
 the lockstep as the ``mission`` participant (so the goal is sent at a fixed simulation
 time), prints progress every few simulated seconds, and ends on success, failure or the
 scenario's time limit. The report is printed and, with ``--report``, written as JSON.
+
+With ``sim.hardware_path`` (sim/hardware_path.py) it runs the hardware_path profile
+instead: the drivers behind the simulator's emulated links, on wall time. The links are
+the run's own, as its router port is: the WHILL's pseudo terminal is linked in the run's
+temporary folder and the LiDAR's packets go to a free UDP port.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ from typing import Any, TextIO
 import yaml
 
 from shared import config as config_mod
-from shared.config import TransportConfig
+from shared.config import FleetConfig, TransportConfig
 from shared.lockstep import Participant
 from shared.messages import (
     Clock,
@@ -38,6 +43,7 @@ from shared.messages import (
 )
 from shared.topics import Keys
 from shared.transport import Bus, open_session
+from sim.hardware_path import check_hardware_path
 from wheelnav.launcher.fleet import services_for, viz_recorder
 from wheelnav.launcher.router import RouterProcess
 from wheelnav.launcher.supervisor import Supervisor, wait_ready
@@ -48,11 +54,29 @@ NAME = "mission"
 PROGRESS_EVERY_S = 5.0
 
 
-def free_port() -> int:
-    """A TCP port on loopback that nothing listens on right now."""
-    with socket.socket() as s:
+def free_port(kind: int = socket.SOCK_STREAM) -> int:
+    """A TCP (or, with ``socket.SOCK_DGRAM``, UDP) port on loopback that nothing is bound
+    to right now."""
+    with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def fleet_profile(cfg: FleetConfig) -> str:
+    """The launcher profile a mission runs: the simulated fleet, or the hardware path's
+    (ConfigError if its settings do not allow it)."""
+    check_hardware_path(cfg)
+    return "hardware_path" if cfg.sim.hardware_path else "sim"
+
+
+def private_links(fleet_cfg: dict[str, Any], folder: Path) -> None:
+    """Give a hardware-path run links of its own (plain config data, changed in place):
+    the WHILL's port in ``folder``, a free UDP port for the LiDAR's packets, and the
+    drivers among the services the simulator's clock waits for."""
+    fleet_cfg["whill"]["port"] = str(folder / "whill")
+    fleet_cfg["vlp16"]["port"] = free_port(socket.SOCK_DGRAM)
+    start_after = fleet_cfg["sim"]["start_after"]
+    start_after += [name for name in ("driver", "vlp16_driver") if name not in start_after]
 
 
 class MissionRun:
@@ -85,6 +109,7 @@ class MissionRun:
     def run(self) -> dict[str, Any]:
         """Run to the end and return the report."""
         cfg = self.scenario.config
+        profile = fleet_profile(cfg)
         endpoint = f"tcp/127.0.0.1:{self.port}"
         wall_start = time.monotonic()
         with tempfile.TemporaryDirectory(prefix="wheelnav-mission-") as tmp:
@@ -93,16 +118,25 @@ class MissionRun:
             if NAME in self._participants() and NAME not in cfg.sim.start_after:
                 # the clock waits for this runner too: the goal goes out at tick 0 of every run
                 fleet_cfg["sim"]["start_after"] = [*cfg.sim.start_after, NAME]
+            if cfg.sim.hardware_path:
+                private_links(fleet_cfg, Path(tmp))
             cfg_path.write_text(yaml.safe_dump(fleet_cfg, sort_keys=False))
             router = RouterProcess(endpoint)
             router.start()
             bus = Bus(open_session(TransportConfig(connect=[endpoint])), NAME)
             self._wire(bus)
             bus.declare_alive(self.keys.key("alive", service=NAME))
-            specs = services_for("sim") + ([viz_recorder(self.rrd)] if self.rrd else [])
+            specs = services_for(profile) + ([viz_recorder(self.rrd)] if self.rrd else [])
             out = self.fleet_output or (_Null() if self.quiet else self.out)
             self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
-            self._say(f"scenario {self.scenario.name}: fleet starting on {endpoint}")
+            self._say(
+                f"scenario {self.scenario.name}: fleet starting on {endpoint}"
+                + (
+                    " (hardware path: the drivers behind emulated links)"
+                    if profile != "sim"
+                    else ""
+                )
+            )
             self.supervisor.start()
             try:
                 missing = wait_ready(

@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -216,6 +217,7 @@ def test_the_node_publishes_a_revolution_on_scan(router, sim_scans: list[np.ndar
     port = free_udp_port()
     args = ["--connect", endpoint, "--robot", "vlp", "--set", "clock=wall"]
     args += ["--set", f"vlp16.port={port}", "--set", "vlp16.bind_address=127.0.0.1"]
+    args += ["--set", "vlp16.stamp_offset_s=3600"]  # its host's clock an hour ahead
     proc = subprocess.Popen(
         [sys.executable, "-m", "services.vlp16_driver.node", *args],
         cwd=ROOT,
@@ -229,6 +231,7 @@ def test_the_node_publishes_a_revolution_on_scan(router, sim_scans: list[np.ndar
             sender.send([b"not a packet", *packets])
         cloud = scans.get(timeout=WAIT_S)
         assert cloud.frame == "lidar"
+        assert cloud.stamp == pytest.approx(time.time() + 3600, abs=60)
         assert_matches_sim(cloud.points, sim_scans[1])
     finally:
         proc.terminate()

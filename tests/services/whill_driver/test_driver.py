@@ -386,6 +386,7 @@ def test_the_node_drives_the_chair_and_counts_bad_commands(router, emulator) -> 
     bus.subscribe(keys.driver_status, DriverStatus, statuses.append)
     bus.subscribe(keys.key("diagnostics", service="driver"), Diagnostics, diagnostics.append)
     argv = ["--connect", endpoint, "--set", "clock=wall", "--port", emulator.port]
+    argv += ["--set", "whill.stamp_offset_s=-3600"]  # its host's clock an hour behind
     node = subprocess.Popen(
         [PYTHON, "-m", "services.whill_driver.node", *argv],
         cwd=ROOT,
@@ -413,6 +414,7 @@ def test_the_node_drives_the_chair_and_counts_bad_commands(router, emulator) -> 
 
         wait_for(driving, "odometry 0.2 m ahead")
         assert odometry[-1].frame == "odom" and odometry[-1].v > 0.1
+        assert odometry[-1].stamp == pytest.approx(time.time() - 3600, abs=60)
         assert node.poll() is None  # bad commands did not end it
 
         # the emergency stop: the chair stops while cmd_vel keeps coming, until cleared
