@@ -328,6 +328,14 @@ class RoutePlanner:
         for other in self.site.doors:
             if other.floor == floor and other.id != door.id:
                 block_segment(occ, grid, other.p1, other.p2, grid.resolution)
+                # and its open leaf where it really stands, a cell thick each side
+                # (with_open_leaves draws it a cell out of its opening, for paths through
+                # it; campaign b2000.m08: a pass ended with the chair's front corner 3.7 cm
+                # beside the open leaf of the next door in series, which the depth strip
+                # missed by 1.5 cm)
+                leaf = other.open_leaf()
+                if leaf is not None:
+                    block_segment(occ, grid, leaf[0], leaf[1], grid.resolution)
         fp = self.planner.robot.footprint
         room = PoseRoom(
             fp.front,

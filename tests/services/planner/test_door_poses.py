@@ -125,6 +125,31 @@ def test_a_leaf_that_sweeps_the_approach_pose_is_marked(
     assert (front_to_plane < leaf) is in_sweep
 
 
+def test_a_pass_ends_before_the_open_leaf_of_the_next_door_in_series(tmp_path: Path) -> None:
+    # campaign b2000.m08: two doors in series 2.9 m apart, the second 0.185 m to one side
+    # and its hinged leaf standing open towards the chair, 0.39 m beside the first door's
+    # centre line; the first door's pass ended with the chair's front 0.2 m beside the
+    # leaf, its corner 3.7 cm from it (the depth strip missed the leaf, drawn a cell out of
+    # its opening, by 1.5 cm)
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5)]
+    walls += [(3.9, 0, 4.1, 5), (6.8, 0, 7.0, 5)]
+    gaps = [(3.9, 2.0, 4.1, 3.05), (6.8, 2.135, 7.0, 3.285)]
+    doors = [("first", (4.0, 2.0), (4.0, 3.05)), ("second", (6.9, 2.135), (6.9, 3.285))]
+    keys = {
+        "first": {"motion": "sliding"},
+        "second": {"motion": "hinged", "swing": "left"},
+    }
+    site = make_site(tmp_path, walls, gaps, doors, (10, 5), keys)
+    (leaf,) = [d.open_leaf() for d in site.doors if d.id == "second"]
+    assert leaf[1][0] == pytest.approx(5.75)  # the leaf stands from x 6.9 back to 5.75
+    route = routes_for(site).route((1.5, 2.525), "1", (8.5, 2.7), "1")
+    first = route.checkpoints[0]
+    assert first.id == "first"
+    front = first.exit[0] + ROBOT.footprint.front
+    assert front <= 5.75, f"the pass ends with the front {front - 5.75:.2f} m beside the leaf"
+
+
 @pytest.mark.parametrize("corridor_m", [1.5, 1.8])
 def test_approach_from_a_corridor_keeps_the_rear_off_the_far_wall(
     tmp_path: Path, corridor_m: float
