@@ -84,7 +84,7 @@ def run_demo(offset_s: float) -> tuple[dict, Stamps, str]:
     return report, stamps, out.text()
 
 
-@pytest.mark.parametrize("offset_s", [0.0, 3600.0, -3600.0])
+@pytest.mark.parametrize("offset_s", [3600.0, -3600.0])  # 0 adds nothing: the path is the same
 def test_the_demo_succeeds_through_the_drivers_whatever_their_clock(offset_s: float) -> None:
     report, stamps, text = run_demo(offset_s)
     assert report["success"], (report["reason"], text[-4000:])
