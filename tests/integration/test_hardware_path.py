@@ -22,7 +22,7 @@ from shared.messages import Odometry, PointCloud
 from shared.topics import Keys
 from shared.transport import Bus, open_session
 from tests.conftest import ROOT
-from tests.integration.test_fleet import Capture
+from tests.integration.test_fleet import STALE_BLIP_S, Capture, stale_holds
 from wheelnav.mission.run import MissionRun
 from wheelnav.mission.scenario import load_scenario
 
@@ -109,23 +109,3 @@ def test_the_demo_succeeds_through_the_drivers_whatever_their_clock(offset_s: fl
     held = stale_holds(report["events"])
     assert all(s <= STALE_BLIP_S for s in held), (held, report["events"])
     assert sum(held) <= 0.1 * report["wall_time_s"], (held, report["wall_time_s"])
-
-
-STALE_BLIP_S = 3.0  # a pose held up this long by a busy machine is load, not a clock
-
-
-def stale_holds(events: list[dict]) -> list[float]:
-    """How long each stale-pose safety stop lasted (seconds, from its clear event); one
-    that never cleared counts as infinite."""
-    held: list[float] = []
-    open_ = False
-    for e in events:
-        if e["kind"] == "safety_stop" and "stale_pose" in e["detail"]:
-            open_ = True
-        elif e["kind"] == "safety_clear" and e["detail"].startswith("stale_pose") and open_:
-            found = re.search(r"after ([0-9.]+) s", e["detail"])
-            held.append(float(found.group(1)) if found else float("inf"))
-            open_ = False
-    if open_:
-        held.append(float("inf"))
-    return held
