@@ -11,6 +11,7 @@ import dataclasses
 import ipaddress
 import logging
 import math
+import re
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -493,6 +494,11 @@ class NavigatorConfig:
     follow_timeout_s: float = field(default=600.0, metadata=check(_positive))
     door_timeout_s: float = field(default=60.0, metadata=check(_positive))
     lift_timeout_s: float = field(default=120.0, metadata=check(_positive))
+    # a door's or a lift's state older than this (judged on arrival, on the navigator's
+    # clock) counts as none: the building sends each at least every second
+    # (building.state_rate_hz), so a silent building (a cut link) leaves no OPEN behind
+    # and a door step waits and times out as when nobody answers (docs/building-bridge.md)
+    building_state_max_age_s: float = field(default=5.0, metadata=check(_positive))
     # how a door is passed: "stop_turn_go" (the seed's: correct, turn, verify, pass) or
     # "smooth" (issue 14: a door seen open from the leg before it is passed without
     # stopping, on a Bézier onto the door the scan shows; stop-turn-go stays its fallback
@@ -620,11 +626,28 @@ class BuildingConfig:
         return door_type == "manual" and self.manual_doors_open
 
 
+def _endpoints(v: list[str]) -> str | None:
+    bad = next((e for e in v if not re.fullmatch(r"[a-z0-9]+/\S+", e)), None)
+    return None if bad is None else f"{bad!r} is not an endpoint such as tcp/192.168.1.20:7447"
+
+
+def _identity(v: str) -> str | None:
+    return None if re.fullmatch(r"[A-Za-z0-9_-]+", v) else "use letters, digits, '_' or '-'"
+
+
 @dataclass
 class LauncherConfig:
     """``wheelnav up``: the in-process router and the restart policy."""
 
     router_listen: str = "tcp/127.0.0.1:7447"
+    # the routers of other hosts this host's router links to (a building server's or a
+    # laptop's router to the chair's, e.g. tcp/192.168.1.20:7447); kept up, and made again
+    # after a cut. Empty: this host's router only listens (the chair's)
+    router_connect: list[str] = field(default_factory=list, metadata=check(_endpoints))
+    # secured (transport.security.dir): whose credentials this host's router holds. The
+    # chair's router is "router"; the router of another host links to it as a `wheelnav
+    # security add NAME --role host` identity, allowed what the identities it carries may do
+    router_identity: str = field(default="router", metadata=check(_identity))
     restart_backoff_s: float = field(default=0.5, metadata=check(_positive))
     restart_backoff_max_s: float = field(default=10.0, metadata=check(_positive))
     restart_reset_after_s: float = field(default=30.0, metadata=check(_positive))

@@ -8,6 +8,10 @@ viewer, the router), each enough on its own to join the fleet::
     DIR/<identity>/key.pem     its private key
     DIR/<identity>/password    its Zenoh user/password secret (username = identity)
     DIR/router/passwords.txt   the router's user:password dictionary (instead of password)
+    DIR/<host>/                a host's router (``--role host``): password and passwords.txt
+
+A host's router listens for the clients of its host and links to the chair's router as
+its identity, so it holds both: the dictionary of its clients and its own password.
 
 :func:`session_settings` turns a folder into the Zenoh config entries of a mutual-TLS,
 user/password session (pure, so the same entries are written to the ``zenoh.json5`` files
@@ -43,7 +47,9 @@ def session_settings(folder: Path, identity: str, router: bool, password: str = 
 
     Both sides present a certificate of the chair's CA (mutual TLS) and only TLS links are
     accepted; a client also authenticates with user ``identity`` and ``password``, a router
-    checks clients against its dictionary. Who may do what is the router's access control.
+    checks clients against its dictionary, and a router given a ``password`` (a host's,
+    linking to the chair's router) authenticates as a client does. Who may do what is the
+    routers' access control.
     """
     tls = "transport/link/tls"
     settings: dict[str, Any] = {
@@ -55,7 +61,7 @@ def session_settings(folder: Path, identity: str, router: bool, password: str = 
         settings[f"{tls}/listen_certificate"] = str(folder / CERT_FILE)
         settings[f"{tls}/listen_private_key"] = str(folder / KEY_FILE)
         settings["transport/auth/usrpwd/dictionary_file"] = str(folder / PASSWORDS_FILE)
-    else:
+    if not router or password:
         settings[f"{tls}/connect_certificate"] = str(folder / CERT_FILE)
         settings[f"{tls}/connect_private_key"] = str(folder / KEY_FILE)
         settings["transport/auth/usrpwd/user"] = identity
@@ -63,23 +69,27 @@ def session_settings(folder: Path, identity: str, router: bool, password: str = 
     return settings
 
 
-def read_settings(root: str | Path, identity: str, router: bool) -> dict[str, Any]:
-    """:func:`session_settings` for ``identity`` in credentials folder ``root``.
+def read_settings(
+    root: str | Path, identity: str, router: bool, links: bool = False
+) -> dict[str, Any]:
+    """:func:`session_settings` for ``identity`` in credentials folder ``root``; a router
+    that ``links`` to another authenticates to it with its own password.
 
     ConfigError with one line when the identity has no folder or a file is missing.
     """
     if not identity:
         raise ConfigError(f"secured session on {root}: no identity given (e.g. --user operator)")
     folder = Path(root).resolve() / identity
-    secret = PASSWORDS_FILE if router else PASSWORD_FILE
+    secrets = [PASSWORDS_FILE] if router else []
+    secrets += [PASSWORD_FILE] if links or not router else []
     if not folder.is_dir():
         known = sorted(p.parent.name for p in Path(root).glob(f"*/{PASSWORD_FILE}"))
         raise ConfigError(
             f"no credentials for {identity!r} in {root} (known: {', '.join(known) or 'none'}); "
             "make them with `wheelnav security init` or `wheelnav security add`"
         )
-    for name in (CA_FILE, CERT_FILE, KEY_FILE, secret):
+    for name in (CA_FILE, CERT_FILE, KEY_FILE, *secrets):
         if not (folder / name).is_file():
             raise ConfigError(f"credentials of {identity!r}: {folder / name} is missing")
-    password = "" if router else (folder / PASSWORD_FILE).read_text().strip()
+    password = (folder / PASSWORD_FILE).read_text().strip() if PASSWORD_FILE in secrets else ""
     return session_settings(folder, identity, router, password)

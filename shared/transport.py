@@ -51,9 +51,12 @@ def zenoh_config(
 ) -> zenoh.Config:
     """A Zenoh config for ``transport``: mode, endpoints, no multicast scouting (loopback-safe).
 
-    With ``transport.security.dir`` set, the session is secured as ``identity`` (mutual TLS,
-    user/password; endpoints move to ``tls/``) and a router enforces ``access_control``.
-    ConfigError with one line for missing credentials.
+    A router connects too when ``transport.connect`` names other routers (another host's:
+    Zenoh keeps the link up and makes it again after a cut). With
+    ``transport.security.dir`` set, the session is secured as ``identity`` (mutual TLS,
+    user/password; endpoints move to ``tls/``; a router that connects authenticates as
+    ``identity`` too) and a router enforces ``access_control``. ConfigError with one line
+    for missing credentials.
     """
     secured = bool(transport.security.dir)
     if secured and transport.mode == "peer":
@@ -61,14 +64,16 @@ def zenoh_config(
     move = secure_endpoint if secured else str
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(transport.mode))
-    if transport.connect and transport.mode != "router":
+    if transport.connect:
         conf.insert_json5("connect/endpoints", json.dumps([move(e) for e in transport.connect]))
     if transport.listen or transport.mode == "router":
         conf.insert_json5("listen/endpoints", json.dumps([move(e) for e in transport.listen]))
     conf.insert_json5("scouting/multicast/enabled", "false")
     if secured:
         router = transport.mode == "router"
-        for path, value in read_settings(transport.security.dir, identity, router).items():
+        links = router and bool(transport.connect)
+        settings = read_settings(transport.security.dir, identity, router, links)
+        for path, value in settings.items():
             conf.insert_json5(path, json.dumps(value))
     if access_control is not None:
         conf.insert_json5("access_control", json.dumps(access_control))

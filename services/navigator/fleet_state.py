@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 
@@ -38,6 +39,7 @@ from shared.messages import (
 )
 
 WARNING_EVENTS = ("safety_stop", "fallback")
+T = TypeVar("T")
 
 
 class FleetState:
@@ -45,7 +47,8 @@ class FleetState:
 
     ``robot`` names the chair (door requests, lift sessions), ``source`` the events'
     sender; ``half_width_m`` is the chair's clearance half-width (the doorway lane) and
-    ``sensor_height_m`` the LiDAR's height above the floor.
+    ``sensor_height_m`` the LiDAR's height above the floor. A door's or a lift's state
+    older than ``state_max_age_s`` is no state (a silent building leaves no OPEN behind).
     """
 
     def __init__(
@@ -59,6 +62,7 @@ class FleetState:
         rear_m: float = 0.35,
         door_scan: DoorScanConfig | None = None,
         restamp: Callable[[], float] | None = None,
+        state_max_age_s: float = math.inf,
     ) -> None:
         self.robot = robot
         self.door_check = door_check
@@ -67,10 +71,12 @@ class FleetState:
         self.front_m, self.rear_m = front_m, rear_m  # the footprint around the pose point
         self.reach_m = math.hypot(max(front_m, rear_m), half_width_m)  # its farthest corner
         self.source = source
-        # on wall time, the controller's status is stamped on arrival with this clock (the
-        # navigator's own): behaviours judge its age against now(), and a controller on
-        # another host stamps from another clock (shared/arrivals.py)
+        # on wall time, the controller's status and the building's states are stamped on
+        # arrival with this clock (the navigator's own): their age is judged against now(),
+        # and a controller or a building on another host stamps from another clock
+        # (shared/arrivals.py)
         self.restamp = restamp
+        self.state_max_age_s = state_max_age_s
         self.clock: Clock | None = None
         self.avoided: set[str] = set()
         self.blocking: list[tuple[float, float, str]] = []  # marked by recoveries (map frame)
@@ -81,8 +87,9 @@ class FleetState:
         self._scan: PointCloud | None = None
         self.door_scan = door_scan or DoorScanConfig()  # the doorway finder's (shared.door_scan)
         self._doorways: tuple[float, list[tuple[float, float, float, float]]] = (-1.0, [])
-        self._doors: dict[str, int] = {}
-        self._lifts: dict[str, LiftState] = {}
+        # the building's states, with when each was current (see _current)
+        self._doors: dict[str, tuple[float, int]] = {}
+        self._lifts: dict[str, tuple[float, LiftState]] = {}
         self._closing: dict[str, tuple[str, float, float, float, float]] = {}
 
     # ---- what arrives -------------------------------------------------------------------
@@ -105,10 +112,21 @@ class FleetState:
         self._scan = msg
 
     def on_door_state(self, msg: DoorState) -> None:
-        self._doors[msg.door_name] = msg.current_mode
+        self._doors[msg.door_name] = (self._arrived(msg.stamp), msg.current_mode)
 
     def on_lift_state(self, msg: LiftState) -> None:
-        self._lifts[msg.lift_name] = msg
+        self._lifts[msg.lift_name] = (self._arrived(msg.stamp), msg)
+
+    def _arrived(self, stamp: float) -> float:
+        """When a message stamped ``stamp`` was current on this clock: on wall time its
+        arrival (the building's host has a clock of its own), else its stamp."""
+        return self.restamp() if self.restamp is not None else stamp
+
+    def _current(self, heard: tuple[float, T] | None) -> T | None:
+        """The value of a building state heard at most ``state_max_age_s`` ago, else None."""
+        if heard is None or self.now() - heard[0] > self.state_max_age_s:
+            return None
+        return heard[1]
 
     # ---- the mission (the navigator's side) ---------------------------------------------
 
@@ -137,10 +155,10 @@ class FleetState:
         return self._follow
 
     def door_mode(self, door_id: str) -> int | None:
-        return self._doors.get(door_id)
+        return self._current(self._doors.get(door_id))
 
     def lift_state(self, lift_id: str) -> LiftState | None:
-        return self._lifts.get(lift_id)
+        return self._current(self._lifts.get(lift_id))
 
     def session_id(self) -> str:
         return self.session

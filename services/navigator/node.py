@@ -61,6 +61,7 @@ class ZenohFleet(FleetState):
             rear_m=cfg.robot.footprint.rear,
             door_scan=cfg.controller.door_scan,
             restamp=time.time if cfg.clock == "wall" else None,
+            state_max_age_s=cfg.navigator.building_state_max_age_s,
         )
         self.bus = bus
         self.keys = keys

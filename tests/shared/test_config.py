@@ -34,6 +34,8 @@ def test_overrides_apply_with_yaml_values() -> None:
         ("robot.footprint=3", "robot.footprint: expected a mapping"),
         ("sim.dt=.nan", "sim.dt: expected a finite number"),
         ("nonsense", "expected KEY=VALUE"),
+        ("launcher.router_connect=[chair:7447]", "launcher.router_connect: 'chair:7447' is not"),
+        ("launcher.router_identity=a b", "launcher.router_identity: use letters"),
     ],
 )
 def test_bad_values_name_the_key(override: str, message: str) -> None:

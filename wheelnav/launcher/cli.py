@@ -11,13 +11,14 @@ from pathlib import Path
 
 from services.viz.sink_args import add_sink_arguments
 from shared import config as config_mod
-from shared.credentials import secure_endpoint
+from shared.credentials import ROUTER, secure_endpoint
 from shared.service import add_override_argument, add_transport_arguments
 from shared.topics import Keys
 from wheelnav.launcher.compose import render_compose
-from wheelnav.launcher.fleet import PROFILES, services_for
+from wheelnav.launcher.fleet import PROFILES, pick, services_for
 from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
 from wheelnav.security import store
+from wheelnav.security.acl import UPSTREAM
 from wheelnav.security.store import router_access_control
 
 COMPOSE_FILE = Path(__file__).resolve().parents[2] / "docker-compose.yml"
@@ -31,6 +32,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         "in-process Zenoh router. Ctrl-C stops everything.",
     )
     p.add_argument("--profile", choices=PROFILES, default="sim")
+    p.add_argument(
+        "--services",
+        metavar="NAMES",
+        help="only these services of the profile, comma-separated (a fleet split across "
+        "hosts, e.g. building on the building's server), or none: the router alone "
+        "(default: every service of the profile)",
+    )
     p.add_argument("--config", metavar="FILE", help="fleet config YAML")
     add_override_argument(p)
     p.add_argument(
@@ -38,6 +46,20 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         metavar="ENDPOINT",
         help="router endpoint (default: launcher.router_listen, tcp/127.0.0.1:7447); "
         "use tcp/0.0.0.0:7447 to let a laptop connect",
+    )
+    p.add_argument(
+        "--connect",
+        metavar="ENDPOINT",
+        action="append",
+        help="link this host's router to another host's, e.g. tcp/CHAIR:7447 (repeatable; "
+        "default: launcher.router_connect, none)",
+    )
+    p.add_argument(
+        "--router-identity",
+        metavar="NAME",
+        help="secured: whose credentials this host's router holds, a `security add NAME "
+        "--role host` identity on a host linked to the chair (default: "
+        "launcher.router_identity, router: the chair's)",
     )
     p.add_argument(
         "--security",
@@ -78,7 +100,9 @@ def run_viz(args: argparse.Namespace) -> int:
     return 0
 
 
-def security_banner(listen: str, security_dir: str, robot: str, identities: int) -> str:
+def security_banner(
+    listen: str, security_dir: str, robot: str, identities: int, identity: str = ROUTER
+) -> str:
     """The one line ``wheelnav up`` says about security: secured how, or insecure and so."""
     if not security_dir:
         return (
@@ -86,44 +110,67 @@ def security_banner(listen: str, security_dir: str, robot: str, identities: int)
             "client that reaches it can send goals and velocities (development only; "
             "see docs/security.md, `wheelnav up --security DIR`)"
         )
+    who = "" if identity == ROUTER else f", this host's router as {identity}"
     return (
         f"secured: mutual TLS, user/password and access control for {robot} "
-        f"({identities} identities in {security_dir}; deny by default)"
+        f"({identities} identities in {security_dir}{who}; deny by default)"
     )
 
 
-def secured_router(security: str, listen: str, robot: str) -> tuple[str, str, dict, int]:
+def secured_router(
+    security: str, listen: str, robot: str, identity: str = ROUTER, links: list[str] = ()
+) -> tuple[str, str, dict, int]:
     """For a secured ``up``: the credentials folder (absolute, for the services), the
-    router's TLS endpoint, its access control for ``robot`` and how many identities it
-    admits. ConfigError with one line when ``security`` is not a credentials folder."""
+    router's TLS endpoint, the access control of ``identity``'s router for ``robot`` and
+    how many identities it admits. ConfigError with one line when ``security`` is not a
+    credentials folder, or the chair's router is asked to make a link (a host's router
+    links to the chair's, as a host identity the chair's router knows)."""
     if not Path(security).is_dir():
         raise config_mod.ConfigError(f"--security {security}: no such directory")
+    if links and identity == ROUTER:
+        raise config_mod.ConfigError(
+            "launcher.router_connect: a secured link is made by another host's router, as a "
+            "host identity (`wheelnav security add DIR NAME --role host --carries WHO`, then "
+            "--router-identity NAME), to the chair's router"
+        )
     folder = str(Path(security).resolve())
     manifest = store.load(folder)
-    access = router_access_control(manifest, robot)
-    return folder, secure_endpoint(listen), access, len(manifest.identities)
+    access = router_access_control(manifest, robot, identity)
+    admitted = [s for s in access["subjects"] if s["id"] != UPSTREAM]
+    return folder, secure_endpoint(listen), access, len(admitted)
 
 
 def run_up(args: argparse.Namespace) -> int:
     cfg = config_mod.load(args.config, args.overrides)
     listen = args.listen or cfg.launcher.router_listen
+    links = args.connect or cfg.launcher.router_connect
+    identity = args.router_identity or cfg.launcher.router_identity
     extra = [a for o in args.overrides for a in ("--set", o)]
     security = args.security or cfg.transport.security.dir
     access, identities = None, 0
     if security:
-        security, listen, access, identities = secured_router(security, listen, cfg.robot.name)
+        security, listen, access, identities = secured_router(
+            security, listen, cfg.robot.name, identity, links
+        )
         extra += ["--set", f"transport.security.dir={json.dumps(security)}"]
     connect = listen.replace("0.0.0.0", "127.0.0.1")
     specs = services_for(args.profile)
+    if args.services is not None:
+        try:
+            specs = pick(specs, args.services)
+        except ValueError as exc:
+            raise config_mod.ConfigError(str(exc)) from None
     if args.profile == "hardware":
         extra += ["--set", "clock=wall"]
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    bus = open_router(listen, security, access)
+    bus = open_router(listen, security, access, links, identity)
     sup = Supervisor(specs, connect, cfg.launcher, args.config, extra)
-    sup.say(security_banner(listen, security, cfg.robot.name, identities))
-    sup.say(f"router listening on {listen}; starting {', '.join(s.name for s in specs)}")
+    sup.say(security_banner(listen, security, cfg.robot.name, identities, identity))
+    linked = f", linked to {', '.join(links)}" if links else ""
+    starting = ", ".join(s.name for s in specs) or "no service (the router alone)"
+    sup.say(f"router listening on {listen}{linked}; starting {starting}")
     sup.start()
     try:
         missing = wait_ready(
@@ -133,7 +180,10 @@ def run_up(args: argparse.Namespace) -> int:
             sup.say(f"not up after {cfg.launcher.ready_timeout_s:.0f} s: {', '.join(missing)}")
         elif not stop.is_set():
             sup.say(f"fleet up; try: wheelnav topic echo {Keys(cfg.robot.name).odom}")
-        stop.wait()
+        # wake now and then: Ctrl-C may land on another thread (Zenoh's), and Python runs
+        # the handler only once the main thread runs again (a bare wait() missed it)
+        while not stop.wait(0.5):
+            pass
         sup.say("stopping")
     finally:
         sup.stop()

@@ -101,3 +101,23 @@ def services_for(profile: str) -> list[ServiceSpec]:
     if profile not in PROFILES:
         raise ValueError(f"unknown profile {profile!r} (known: {', '.join(PROFILES)})")
     return [s for s in SERVICES if profile in s.profiles]
+
+
+NO_SERVICES = "none"  # ``up --services none``: the router alone (a laptop's, for its clients)
+
+
+def pick(specs: list[ServiceSpec], names: str) -> list[ServiceSpec]:
+    """The services of ``specs`` named in ``names`` (comma-separated; "none": no service),
+    in fleet order: what runs on one host of a fleet split across several. ValueError
+    naming the names ``specs`` does not hold."""
+    wanted = [n.strip() for n in names.split(",") if n.strip()]
+    if wanted == [NO_SERVICES]:
+        return []
+    known = [s.name for s in specs]
+    unknown = [n for n in wanted if n not in known]
+    if unknown or not wanted:
+        raise ValueError(
+            f"--services {names!r}: {', '.join(unknown) or 'no name'} not in the profile "
+            f"(it has {', '.join(known)}; or {NO_SERVICES}: the router alone)"
+        )
+    return [s for s in specs if s.name in wanted]

@@ -28,13 +28,23 @@ from wheelnav.launcher.backoff import Backoff, prefix
 from wheelnav.launcher.fleet import ServiceSpec
 
 
-def open_router(listen: str, security_dir: str = "", access_control: dict | None = None) -> Bus:
-    """A bus on a Zenoh session in router mode listening on ``listen`` (loopback by default);
-    secured by the router's credentials in ``security_dir`` and ``access_control`` if given."""
+def open_router(
+    listen: str,
+    security_dir: str = "",
+    access_control: dict | None = None,
+    connect: list[str] = (),
+    identity: str = ROUTER,
+) -> Bus:
+    """A bus on a Zenoh session in router mode listening on ``listen`` (loopback by default)
+    and linked to the routers at ``connect`` (other hosts'); secured by the credentials of
+    ``identity`` in ``security_dir`` and ``access_control`` if given."""
     transport = TransportConfig(
-        mode="router", connect=[], listen=[listen], security=SecurityConfig(dir=security_dir)
+        mode="router",
+        connect=list(connect),
+        listen=[listen],
+        security=SecurityConfig(dir=security_dir),
     )
-    return Bus(open_session(transport, ROUTER, access_control), "launcher")
+    return Bus(open_session(transport, identity, access_control), "launcher")
 
 
 @dataclass

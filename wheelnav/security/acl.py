@@ -10,6 +10,13 @@ the topic and the word). Two pure steps:
 - :func:`access_control`: those grants as Zenoh 1.x ``access_control`` config, deny by
   default; a subject per identity binds its certificate's common name to its username.
 
+A host (the router of another machine: a building server, a laptop) links to the chair's
+router and carries the traffic of the identities that run there: the chair's router lets
+it do what those identities may do, no more (a laptop's router carrying operators and
+viewers cannot forward a velocity). The host's own router enforces the same rules on its
+clients and trusts the chair's router, which it reaches (:func:`access_control` with
+``upstream``).
+
 A field ``{service}`` or ``{source}`` of the key is the identity's own name where it
 offers (publishes, holds a token, answers queries): a service publishes its diagnostics
 and holds its liveliness token on its own key only.
@@ -22,10 +29,12 @@ import string
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from shared.credentials import ROUTER
 from shared.topics import ROOT, Keys, Topic
 
-SERVICE, OPERATOR, VIEWER = "service", "operator", "viewer"
+SERVICE, OPERATOR, VIEWER, HOST = "service", "operator", "viewer", "host"
 PERSON_ROLES = (OPERATOR, VIEWER)
+GROUPS = {"@operators": OPERATOR, "@viewers": VIEWER, "@services": SERVICE}
 
 # Who the words of the table's publisher / queryable columns mean: service names, or a
 # group: "@operators" (people allowed to command the chair), "@services" (every service
@@ -62,7 +71,10 @@ ACTIONS: dict[str, tuple[tuple[str, tuple[str, ...]], ...]] = {
         ("ingress", ("declare_subscriber", "declare_liveliness_subscriber", "liveliness_query")),
         ("egress", ("put", "liveliness_token", "declare_subscriber")),
     ),
+    # a host's router: it forwards its clients' queries only to the queryables it heard of
+    "route": (("egress", ("declare_queryable",)),),
 }
+UPSTREAM = "upstream"  # a host router's rule for the chair's router, which it links to
 OWN_FIELDS = ("service", "source")
 _QUALIFIER = re.compile(r"\s*\([^()]*\)$")  # a trailing "(get)", "(queryable)", ...
 _SEPARATOR = re.compile(r"\s*[,/]\s*(?![^()]*\))")  # "," or "/" outside parentheses
@@ -70,10 +82,12 @@ _SEPARATOR = re.compile(r"\s*[,/]\s*(?![^()]*\))")  # "," or "/" outside parenth
 
 @dataclass(frozen=True)
 class Identity:
-    """One holder of credentials: a service (by its name), an operator or a viewer."""
+    """One holder of credentials: a service (by its name), an operator, a viewer, or a host
+    whose router ``carries`` the traffic of identities (names, or :data:`GROUPS`)."""
 
     name: str
     role: str
+    carries: tuple[str, ...] = ()
 
 
 Grants = dict[str, dict[str, list[str]]]
@@ -121,7 +135,8 @@ def topic_key(keys: Keys, topic: Topic, owner: str | None) -> str:
 
 
 def grants(topics: Iterable[Topic], identities: Iterable[Identity], robot: str) -> Grants:
-    """identity -> action (:data:`ACTIONS`) -> sorted keys, for one robot's router."""
+    """identity -> action (:data:`ACTIONS`) -> sorted keys, for one robot's router; a
+    host's are those of the identities it carries, and ``route`` for what they query."""
     ids = list(identities)
     keys = Keys(robot)
     out: Grants = {i.name: {"read": [f"{ROOT}/**"]} for i in ids}
@@ -141,14 +156,53 @@ def grants(topics: Iterable[Topic], identities: Iterable[Identity], robot: str) 
             action = "token" if topic.kind == "liveliness" else "publish"
             for name in who(topic, topic.publisher, ids):
                 allow(name, action, topic_key(keys, topic, name))
+    for host in (i for i in ids if i.role == HOST):
+        for name in carried(host, ids):
+            for action, keys_ in out[name].items():
+                for key in keys_:
+                    allow(host.name, action, key)
+        for key in out[host.name].get("query", []):
+            allow(host.name, "route", key)
     return {name: {a: sorted(k) for a, k in acts.items()} for name, acts in out.items()}
 
 
-def access_control(granted: Mapping[str, Mapping[str, list[str]]]) -> dict:
+def carried(host: Identity, identities: Iterable[Identity]) -> list[str]:
+    """The identities whose traffic ``host``'s router carries: its words, each an identity
+    name or a group of :data:`GROUPS`; ValueError naming a word that is neither."""
+    ids = [i for i in identities if i.role != HOST]
+    out: list[str] = []
+    for word in host.carries:
+        if word in GROUPS:
+            names = [i.name for i in ids if i.role == GROUPS[word]]
+        elif word in {i.name for i in ids}:
+            names = [word]
+        else:
+            raise ValueError(
+                f"host {host.name!r} carries {word!r}: neither an identity nor one of "
+                f"{', '.join(GROUPS)}"
+            )
+        out += [n for n in names if n not in out]
+    return out
+
+
+def access_control(granted: Mapping[str, Mapping[str, list[str]]], upstream: bool = False) -> dict:
     """Zenoh ``access_control`` config for ``granted``: deny by default; per identity a
-    subject (certificate common name and username, both its name) and a policy."""
+    subject (certificate common name and username, both its name) and a policy.
+
+    ``upstream``: the config of a host's router, which links to the chair's router and
+    lets it do anything on ``wheelnav/**`` (it is the chair's, and enforces the rules of
+    its own clients). That router is known by its certificate's common name alone: the
+    side that accepts a link does not give a username.
+    """
     rules: list[dict] = []
     policies: list[dict] = []
+    subjects = [{"id": name, "cert_common_names": [name], "usernames": [name]} for name in granted]
+    if upstream:
+        kinds = sorted({m for flows in ACTIONS.values() for _, ms in flows for m in ms})
+        rule = {"id": UPSTREAM, "permission": "allow", "flows": ["ingress", "egress"]}
+        rules.append({**rule, "messages": kinds, "key_exprs": [f"{ROOT}/**"]})
+        subjects.append({"id": UPSTREAM, "cert_common_names": [ROUTER]})
+        policies.append({"id": UPSTREAM, "rules": [UPSTREAM], "subjects": [UPSTREAM]})
     for name, actions in granted.items():
         own = [
             rule
@@ -162,9 +216,7 @@ def access_control(granted: Mapping[str, Mapping[str, list[str]]]) -> dict:
         "enabled": True,
         "default_permission": "deny",
         "rules": rules,
-        "subjects": [
-            {"id": name, "cert_common_names": [name], "usernames": [name]} for name in granted
-        ],
+        "subjects": subjects,
         "policies": policies,
     }
 

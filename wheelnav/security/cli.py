@@ -37,14 +37,25 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         "--viewer", action="append", help="a read-only client (repeatable; default: viewer)"
     )
     init.set_defaults(run=run_init)
-    add = ssub.add_parser("add", help="credentials for one more operator, viewer or service")
+    add = ssub.add_parser(
+        "add", help="credentials for one more operator, viewer, service or host's router"
+    )
     add.add_argument("dir", help="the folder `security init` made")
     add.add_argument("name", help="the new identity's name (its username)")
     add.add_argument(
         "--role",
         choices=store.ROLES,
         default="operator",
-        help="operator (default), viewer, or service (a service added to the fleet since init)",
+        help="operator (default), viewer, service (a service added to the fleet since init), "
+        "or host (the router of another machine, linked to the chair's: `wheelnav up "
+        "--router-identity NAME --connect tcp/CHAIR:7447` there)",
+    )
+    add.add_argument(
+        "--carries",
+        metavar="WHO",
+        default="",
+        help="for a host: whose traffic its router carries, comma-separated identity names "
+        "or @operators, @viewers, @services (e.g. building; @operators,@viewers for a laptop)",
     )
     add.set_defaults(run=run_add)
     show = ssub.add_parser("show", help="what each identity may do (the router's rules)")
@@ -85,13 +96,14 @@ def run_init(args: argparse.Namespace) -> int:
 
 def run_add(args: argparse.Namespace) -> int:
     try:
-        written = store.add(args.dir, args.name, args.role)
+        carries = tuple(w.strip() for w in args.carries.split(",") if w.strip())
+        written = store.add(args.dir, args.name, args.role, carries)
     except ValueError as exc:
         print(f"wheelnav security add: {exc}")
         return 2
     print(f"{args.name} ({args.role}) added to {args.dir}:")
     _print_written(args.dir, written)
-    print("restart `wheelnav up` for the router to know them (Zenoh reads its rules at start)")
+    print("restart `wheelnav up` for the routers to know them (Zenoh reads its rules at start)")
     return 0
 
 
@@ -105,7 +117,8 @@ def run_show(args: argparse.Namespace) -> int:
     granted = grants(TOPICS, manifest.identities, robot)
     print(f"robot {robot}: default deny; every identity may read wheelnav/**")
     for ident in manifest.identities:
-        print(f"{ident.name} ({ident.role})")
+        carries = f", carries {', '.join(ident.carries)}" if ident.carries else ""
+        print(f"{ident.name} ({ident.role}{carries})")
         for action in ACTIONS:
             if action != "read" and granted[ident.name].get(action):
                 print(f"  {action:8s} {', '.join(granted[ident.name][action])}")

@@ -7,6 +7,7 @@ Layout (shared/credentials.py reads an identity's folder)::
     DIR/ca/ca.pem, ca.key    the certificate authority (ca.key only signs new identities)
     DIR/router/              ca.pem cert.pem key.pem passwords.txt zenoh.json5
     DIR/<identity>/          ca.pem cert.pem key.pem password zenoh.json5
+    DIR/<host>/              the same and passwords.txt (its clients'): a host's router
 
 Secrets (keys, passwords, the zenoh.json5 files that hold a password) are readable by
 their owner only. The ``zenoh.json5`` files hold the same settings wheelnav builds at run
@@ -36,12 +37,14 @@ from shared.credentials import (
 from shared.topics import TOPICS, check_name
 from wheelnav.launcher.fleet import ROUTER_PORT, SERVICES
 from wheelnav.security.acl import (
+    HOST,
     OPERATOR,
     PERSON_ROLES,
     SERVICE,
     VIEWER,
     Identity,
     access_control,
+    carried,
     grants,
 )
 from wheelnav.security.pki import Issued, issue, new_ca
@@ -55,7 +58,7 @@ ZENOH_FILE = "zenoh.json5"
 SERVICE_NAMES = (*(s.name for s in SERVICES), "viz", "mission")
 DEFAULT_HOSTS = ("localhost", "127.0.0.1", "::1")
 RESERVED = (CA_DIR, ROUTER)
-ROLES = (SERVICE, *PERSON_ROLES)
+ROLES = (SERVICE, *PERSON_ROLES, HOST)
 
 
 @dataclass(frozen=True)
@@ -68,21 +71,26 @@ class Written:
 
 @dataclass(frozen=True)
 class Manifest:
-    """What the folder holds: the chair, the router's host names, every identity."""
+    """What the folder holds: the chair, the router's host names, every identity (and, for
+    a host, whose traffic its router carries)."""
 
     robot: str
     hosts: tuple[str, ...]
     identities: tuple[Identity, ...]
 
     def to_json(self) -> str:
-        return json.dumps(
-            {
-                "robot": self.robot,
-                "hosts": list(self.hosts),
-                "identities": {i.name: i.role for i in self.identities},
-            },
-            indent=2,
-        )
+        data: dict[str, Any] = {
+            "robot": self.robot,
+            "hosts": list(self.hosts),
+            "identities": {i.name: i.role for i in self.identities},
+        }
+        carries = {i.name: list(i.carries) for i in self.identities if i.role == HOST}
+        if carries:
+            data["carries"] = carries
+        return json.dumps(data, indent=2)
+
+    def identity(self, name: str) -> Identity | None:
+        return next((i for i in self.identities if i.name == name), None)
 
 
 def load(root: str | Path) -> Manifest:
@@ -91,18 +99,34 @@ def load(root: str | Path) -> Manifest:
     if not path.is_file():
         raise ConfigError(f"{root}: not a credentials folder (no {MANIFEST}; see `security init`)")
     data = json.loads(path.read_text())
-    ids = tuple(Identity(name, role) for name, role in data["identities"].items())
+    carries = data.get("carries", {})
+    ids = tuple(
+        Identity(name, role, tuple(carries.get(name, ())))
+        for name, role in data["identities"].items()
+    )
     return Manifest(data["robot"], tuple(data["hosts"]), ids)
 
 
-def router_access_control(manifest: Manifest, robot: str) -> dict:
-    """The router's access control for ``robot``, from the topic table and the identities."""
-    return access_control(grants(TOPICS, manifest.identities, robot))
+def router_access_control(manifest: Manifest, robot: str, identity: str = ROUTER) -> dict:
+    """The access control for ``robot`` of the router of ``identity``, from the topic table
+    and the identities: the chair's router (``router``) knows every identity; a host's
+    router the identities it carries, and the chair's router it links to. ConfigError if
+    ``identity`` is neither."""
+    granted = grants(TOPICS, manifest.identities, robot)
+    if identity == ROUTER:
+        return access_control(granted)
+    host = manifest.identity(identity)
+    if host is None or host.role != HOST:
+        raise ConfigError(
+            f"{identity!r} is not a host of this credentials folder (make one with `wheelnav "
+            f"security add DIR {identity} --role host --carries WHO`)"
+        )
+    return access_control({n: granted[n] for n in carried(host, manifest.identities)}, True)
 
 
 def check_identity(name: str, role: str, taken: set[str]) -> str:
-    """A new identity's name; ValueError if invalid, taken, or a person named as a service
-    (a service's identity is its own name: one the fleet added since `init`)."""
+    """A new identity's name; ValueError if invalid, taken, or a person or a host named as a
+    service (a service's identity is its own name: one the fleet added since `init`)."""
     check_name(role, name)
     if role not in ROLES:
         raise ValueError(f"role {role!r}: use {', '.join(ROLES)}")
@@ -142,7 +166,7 @@ def init(
     passwords = {}
     for ident in ids:
         passwords[ident.name] = _write_identity(root, ca, manifest, ident)
-        written.append(Written(f"{ident.name}/", _describe(ident.role)))
+        written.append(Written(f"{ident.name}/", _describe(ident)))
     _write_router(root, ca, manifest, passwords)
     written.insert(1, Written(f"{ROUTER}/", _router_text(manifest)))
     _write(root / MANIFEST, manifest.to_json().encode(), secret=False)
@@ -150,38 +174,51 @@ def init(
     return written
 
 
-def add(root: str | Path, name: str, role: str) -> list[Written]:
+def add(root: str | Path, name: str, role: str, carries: tuple[str, ...] = ()) -> list[Written]:
     """Credentials for one more operator, viewer or service (one the fleet gained since
-    `init`); the router knows them once restarted."""
+    `init`), or a host whose router ``carries`` the traffic of identities (names, or
+    ``@operators``, ``@viewers``, ``@services``); the routers know them once restarted."""
     root = Path(root)
     manifest = load(root)
     check_identity(name, role, {i.name for i in manifest.identities})
+    ident = Identity(name, role, tuple(carries))
+    if role == HOST and not carries:
+        raise ValueError(f"host {name!r}: say whose traffic its router carries (--carries)")
+    if role != HOST and carries:
+        raise ValueError(f"{name!r}: only a host's router carries others (--role host)")
+    carried(ident, manifest.identities)  # a word that names nobody: ValueError
     key_path = root / CA_DIR / CA_KEY_FILE
     if not key_path.is_file():
         raise ValueError(f"{key_path} is missing: only the CA's key can sign a new identity")
     ca = Issued((root / CA_DIR / CA_FILE).read_bytes(), key_path.read_bytes())
-    ident = Identity(name, role)
     manifest = Manifest(manifest.robot, manifest.hosts, (*manifest.identities, ident))
     password = _write_identity(root, ca, manifest, ident)
     router = root / ROUTER
     with (router / PASSWORDS_FILE).open("a") as f:
         f.write(f"{name}:{password}\n")
     _write_router_config(root, manifest)
+    hosts = [i for i in manifest.identities if i.role == HOST]
+    for host in hosts:  # a new operator is let in by the hosts carrying @operators
+        _write_host_config(root, manifest, host)
     _write(root / MANIFEST, manifest.to_json().encode(), secret=False)
     return [
-        Written(f"{name}/", _describe(role)),
+        Written(f"{name}/", _describe(ident, manifest)),
         Written(f"{ROUTER}/{PASSWORDS_FILE}", f"{name} added"),
         Written(f"{ROUTER}/{ZENOH_FILE}", "access control with the new identity"),
+        *(Written(f"{h.name}/", "the clients it lets in and their rules") for h in hosts),
         Written(MANIFEST, f"{name}: {role}"),
     ]
 
 
-def _describe(role: str) -> str:
+def _describe(ident: Identity, manifest: Manifest | None = None) -> str:
+    if ident.role == HOST and manifest is not None:
+        names = ", ".join(carried(ident, manifest.identities))
+        return f"host: its router links to the chair's, for {names}"
     return {
         SERVICE: "service",
         OPERATOR: "operator: may send goals, cancels, resumes, emergency stops",
         VIEWER: "viewer: may only read",
-    }[role]
+    }[ident.role]
 
 
 def _router_text(manifest: Manifest) -> str:
@@ -195,12 +232,15 @@ def _write_identity(root: Path, ca: Issued, manifest: Manifest, ident: Identity)
     """Write ``ident``'s folder; returns its password."""
     folder = root / ident.name
     _mkdir(folder)
-    leaf = issue(ca, ident.name)
+    # a host's router is reached by its own clients on loopback: a server's certificate
+    leaf = issue(ca, ident.name, DEFAULT_HOSTS if ident.role == HOST else ())
     password = secrets.token_urlsafe(24)
     _write(folder / CA_FILE, ca.cert_pem, secret=False)
     _write(folder / CERT_FILE, leaf.cert_pem, secret=False)
     _write(folder / KEY_FILE, leaf.key_pem, secret=True)
     _write(folder / PASSWORD_FILE, (password + "\n").encode(), secret=True)
+    if ident.role == HOST:
+        return password  # its dictionary and config: _write_host_config, once it is known
     connect = f"tls/{_url_host(_reached_at(manifest.hosts))}:{ROUTER_PORT}"
     settings = session_settings(folder.resolve(), ident.name, router=False, password=password)
     conf = {"mode": "client", "connect/endpoints": [connect], **settings}
@@ -230,6 +270,26 @@ def _write_router_config(root: Path, manifest: Manifest) -> None:
         "access_control": router_access_control(manifest, manifest.robot),
     }
     _write(folder / ZENOH_FILE, _json5(conf, f"the router of {manifest.robot}"), secret=False)
+
+
+def _write_host_config(root: Path, manifest: Manifest, host: Identity) -> None:
+    """A host's dictionary (the passwords of the identities it carries, from the chair's)
+    and its router config: listening on loopback, linked to the chair's router."""
+    folder = root / host.name
+    names = set(carried(host, manifest.identities))
+    lines = (root / ROUTER / PASSWORDS_FILE).read_text().splitlines(keepends=True)
+    mine = "".join(ln for ln in lines if ln.split(":", 1)[0] in names)
+    _write(folder / PASSWORDS_FILE, mine.encode(), secret=True)
+    password = (folder / PASSWORD_FILE).read_text().strip()
+    conf: dict[str, Any] = {
+        "mode": "router",
+        "listen/endpoints": [f"tls/127.0.0.1:{ROUTER_PORT}"],
+        "connect/endpoints": [f"tls/{_url_host(_reached_at(manifest.hosts))}:{ROUTER_PORT}"],
+        "scouting/multicast/enabled": False,
+        **session_settings(folder.resolve(), host.name, router=True, password=password),
+        "access_control": router_access_control(manifest, manifest.robot, host.name),
+    }
+    _write(folder / ZENOH_FILE, _json5(conf, f"the router of host {host.name}"), secret=True)
 
 
 def _reached_at(hosts: tuple[str, ...]) -> str:

@@ -10,7 +10,9 @@ from shared.messages import (
     Clock,
     DoorMode,
     DoorState,
+    LiftDoor,
     LiftRequestType,
+    LiftState,
     PointCloud,
     Pose2D,
     PoseEstimate,
@@ -131,3 +133,44 @@ def test_the_doorways_in_the_latest_scan_are_given_on_the_map() -> None:
     assert stamp == 1.0 and abs(width - 0.9) < 0.02
     assert abs(x - 9.55) < 0.02 and abs(y - 7.0) < 0.02
     assert abs(np.sin(direction)) < 0.02  # the wall runs along the map's x axis
+
+
+def test_a_building_state_older_than_its_limit_counts_as_none() -> None:
+    # a silent building (its link cut) leaves no OPEN behind: the door step waits and
+    # times out as when nobody answers (issue 16 item 6)
+    cfg = FleetConfig()
+    s = FleetState(
+        cfg.robot.name,
+        cfg.navigator.door_check,
+        cfg.robot.lidar_height_m,
+        cfg.robot.clearance_half_width_m,
+        state_max_age_s=5.0,
+    )
+    s.on_door_state(DoorState(10.0, "d1", DoorMode.OPEN))
+    s.on_lift_state(LiftState(10.0, "lift_a", ["1"], "1", "1", LiftDoor.OPEN, 0, 2, ""))
+    s.on_clock(Clock(stamp=15.0, tick=750, dt=0.02))
+    assert s.door_mode("d1") == DoorMode.OPEN and s.lift_state("lift_a") is not None
+    s.on_clock(Clock(stamp=15.1, tick=755, dt=0.02))
+    assert s.door_mode("d1") is None and s.lift_state("lift_a") is None
+    s.on_door_state(DoorState(15.1, "d1", DoorMode.OPEN))
+    assert s.door_mode("d1") == DoorMode.OPEN
+
+
+def test_on_wall_time_a_building_state_is_as_old_as_its_arrival() -> None:
+    # the building's host stamps from its own clock (here an hour behind): the age is
+    # the time since the state arrived, on the navigator's clock
+    cfg = FleetConfig()
+    wall = [1000.0]
+    s = FleetState(
+        cfg.robot.name,
+        cfg.navigator.door_check,
+        cfg.robot.lidar_height_m,
+        cfg.robot.clearance_half_width_m,
+        restamp=lambda: wall[0],
+        state_max_age_s=5.0,
+    )
+    s.on_door_state(DoorState(1000.0 - 3600.0, "d1", DoorMode.OPEN))
+    s.on_clock(Clock(stamp=1004.0, tick=1, dt=0.1))
+    assert s.door_mode("d1") == DoorMode.OPEN
+    s.on_clock(Clock(stamp=1006.0, tick=2, dt=0.1))
+    assert s.door_mode("d1") is None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import yaml
 
 from shared.config import LauncherConfig
@@ -9,7 +10,7 @@ from shared.state_store import STATE_DIR_ENV
 from tests.conftest import ROOT
 from wheelnav.launcher.backoff import Backoff
 from wheelnav.launcher.compose import render_compose
-from wheelnav.launcher.fleet import SERVICES, services_for
+from wheelnav.launcher.fleet import SERVICES, pick, services_for
 from wheelnav.launcher.supervisor import Supervisor
 
 
@@ -55,3 +56,23 @@ def test_backoff_grows_and_resets() -> None:
     b = Backoff(base_s=0.5, max_s=4.0, reset_after_s=30.0)
     assert [b.on_exit(1.0) for _ in range(5)] == [0.5, 1.0, 2.0, 4.0, 4.0]
     assert b.on_exit(60.0) == 0.5
+
+
+def test_a_host_of_a_split_fleet_runs_the_services_it_names_or_none() -> None:
+    sim = services_for("sim")
+    chair = pick(sim, "navigator,sim, controller,localisation,planner")
+    assert [s.name for s in chair] == ["sim", "localisation", "planner", "controller", "navigator"]
+    assert [s.name for s in pick(sim, "building")] == ["building"]
+    assert pick(sim, "none") == []  # the router alone: a laptop's, for its clients
+    with pytest.raises(ValueError, match="driver not in the profile"):
+        pick(sim, "building,driver")
+    with pytest.raises(ValueError, match="no name not in the profile"):
+        pick(sim, ",")
+
+
+def test_up_names_a_service_its_profile_lacks_in_one_line(capsys) -> None:
+    from wheelnav.cli import main
+
+    assert main(["up", "--services", "driver"]) == 2  # the sim profile has no driver
+    err = capsys.readouterr().err
+    assert "driver not in the profile" in err and err.count("\n") == 1

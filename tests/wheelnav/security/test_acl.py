@@ -6,11 +6,13 @@ import pytest
 
 from shared.topics import TOPICS, Topic
 from wheelnav.security.acl import (
+    HOST,
     OPERATOR,
     SERVICE,
     VIEWER,
     Identity,
     access_control,
+    carried,
     grants,
     phrases,
 )
@@ -112,3 +114,46 @@ def test_the_zenoh_config_denies_by_default_and_binds_names_to_certificates() ->
     assert [(r["id"], r["flows"], r["messages"]) for r in cmd_rules] == [
         ("controller/publish/ingress", ["ingress"], ["put"])
     ]
+
+
+HOSTS = [
+    *IDS,
+    Identity("laptop", HOST, ("@operators", "@viewers")),
+    Identity("building-host", HOST, ("building",)),
+]
+H = grants(TOPICS, HOSTS, "chair1")
+
+
+def test_a_hosts_router_may_do_what_the_identities_it_carries_may_do_no_more() -> None:
+    assert carried(HOSTS[-2], HOSTS) == ["alice", "bob"]
+    assert H["laptop"]["publish"] == H["alice"]["publish"]  # goals, cancels, stops
+    assert "wheelnav/chair1/cmd_vel" not in H["laptop"]["publish"]
+    building = H["building-host"]
+    assert "wheelnav/building/door/*/state" in building["publish"]
+    assert building["token"] == ["wheelnav/chair1/alive/building"]
+    assert "wheelnav/chair1/nav/goal" not in building["publish"]
+    assert {n: G[n] for n in G} == {n: H[n] for n in G}  # the others' rules are unchanged
+
+
+def test_a_hosts_router_hears_of_the_queryables_its_clients_may_ask() -> None:
+    # routers forward a query only to the queryables they heard of: the chair's router
+    # declares them to the laptop's, for an operator's `wheelnav stop` (estop states)
+    assert H["laptop"]["route"] == H["laptop"]["query"] == ["wheelnav/chair1/estop/state/*"]
+    acl = access_control({"laptop": H["laptop"]})
+    route = next(r for r in acl["rules"] if r["id"] == "laptop/route/egress")
+    assert route["messages"] == ["declare_queryable"] and route["flows"] == ["egress"]
+
+
+def test_a_host_carrying_a_word_that_names_nobody_is_refused() -> None:
+    with pytest.raises(ValueError, match="carries 'bobby': neither an identity nor one of"):
+        carried(Identity("laptop", HOST, ("bobby",)), HOSTS)
+
+
+def test_a_hosts_router_trusts_the_chairs_router_known_by_its_certificate() -> None:
+    acl = access_control({"alice": G["alice"]}, upstream=True)
+    (up,) = [s for s in acl["subjects"] if s["id"] == "upstream"]
+    assert up == {"id": "upstream", "cert_common_names": ["router"]}  # no username: it accepts
+    (rule,) = [r for r in acl["rules"] if r["id"] == "upstream"]
+    assert rule["key_exprs"] == ["wheelnav/**"] and set(rule["flows"]) == {"ingress", "egress"}
+    assert {"put", "query", "reply", "declare_queryable"} <= set(rule["messages"])
+    assert "upstream" not in str(access_control({"alice": G["alice"]}))

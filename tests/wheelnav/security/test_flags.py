@@ -63,3 +63,19 @@ def test_a_secured_up_listens_on_tls_with_the_folders_rules(tmp_path: Path) -> N
         secured_router(str(tmp_path), "tcp/127.0.0.1:7447", "chair1")
     with pytest.raises(ConfigError, match="no such directory"):
         secured_router(str(tmp_path / "none"), "tcp/127.0.0.1:7447", "chair1")
+
+
+def test_a_secured_link_is_made_by_a_hosts_router_not_the_chairs(tmp_path: Path) -> None:
+    keys = tmp_path / "keys"
+    store.init(keys, "chair1", ["10.77.1.1"], ["operator"], ["viewer"])
+    store.add(keys, "building-host", "host", ("building",))
+    links = ["tcp/10.77.1.1:7447"]
+    with pytest.raises(ConfigError, match="made by another host's router, as a host identity"):
+        secured_router(str(keys), "tcp/127.0.0.1:7447", "chair1", "router", links)
+    _f, listen, access, admitted = secured_router(
+        str(keys), "tcp/127.0.0.1:7447", "chair1", "building-host", links
+    )
+    assert listen == "tls/127.0.0.1:7447" and admitted == 1  # the building service
+    assert "upstream" in {s["id"] for s in access["subjects"]}
+    line = security_banner(listen, str(keys), "chair1", admitted, "building-host")
+    assert "1 identities" in line and "this host's router as building-host" in line

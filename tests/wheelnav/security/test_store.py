@@ -117,3 +117,66 @@ def test_add_an_operator_then_show_what_they_may_do(tmp_path: Path, capsys) -> N
     carol = shown.split("carol (operator)\n")[1]
     assert "publish" in carol and "wheelnav/chair1/nav/goal" in carol
     assert "viewer (viewer)\n" in shown
+
+
+def test_a_hosts_router_gets_a_folder_to_link_to_the_chairs_and_let_its_clients_in(
+    tmp_path: Path, capsys
+) -> None:
+    root = tmp_path / "chair"
+    store.init(root, "chair1", ["10.77.2.1"], ["alice"], ["bob"])
+    argv = ["security", "add", str(root), "laptop", "--role", "host"]
+    assert main([*argv, "--carries", "@operators,@viewers"]) == 0
+    assert "host: its router links to the chair's, for alice, bob" in capsys.readouterr().out
+    laptop = root / "laptop"
+    san = _cert(laptop / "cert.pem").extensions.get_extension_for_class(x509.SubjectAlternativeName)
+    assert "localhost" in san.value.get_values_for_type(x509.DNSName)  # its clients reach it
+    dictionary = (laptop / "passwords.txt").read_text()
+    assert sorted(line.split(":")[0] for line in dictionary.splitlines()) == ["alice", "bob"]
+    assert "laptop:" in (root / "router" / "passwords.txt").read_text()
+    assert store.load(root).identity("laptop").carries == ("@operators", "@viewers")
+    settings = read_settings(root, "laptop", router=True, links=True)
+    assert settings["transport/auth/usrpwd/user"] == "laptop"
+    assert settings["transport/auth/usrpwd/dictionary_file"].endswith("laptop/passwords.txt")
+    conf = json.loads((laptop / "zenoh.json5").read_text().split("\n", 1)[1])
+    assert conf["connect"]["endpoints"] == ["tls/10.77.2.1:7447"] and conf["mode"] == "router"
+    subjects = {s["id"] for s in conf["access_control"]["subjects"]}
+    assert subjects == {"alice", "bob", "upstream"}
+    assert stat.S_IMODE((laptop / "zenoh.json5").stat().st_mode) == 0o600  # its password
+
+    # an operator added later is let in by the host carrying @operators, not by another
+    assert main([*argv[:3], "building-host", "--role", "host", "--carries", "building"]) == 0
+    assert main(["security", "add", str(root), "carol"]) == 0
+    assert "carol:" in (laptop / "passwords.txt").read_text()
+    assert "carol:" not in (root / "building-host" / "passwords.txt").read_text()
+    assert main(["security", "show", str(root)]) == 0
+    assert "laptop (host, carries @operators, @viewers)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("role", "carries", "why"),
+    [
+        ("host", (), "say whose traffic"),
+        ("operator", ("building",), "only a host's router carries"),
+        ("host", ("nobody",), "carries 'nobody': neither"),
+        ("host", ("@admins",), "carries '@admins': neither"),
+    ],
+)
+def test_a_host_says_whom_it_carries_and_only_a_host_does(
+    tmp_path: Path, role: str, carries: tuple[str, ...], why: str
+) -> None:
+    store.init(tmp_path / "k", "chair1", [], ["alice"], [])
+    with pytest.raises(ValueError, match=why):
+        store.add(tmp_path / "k", "laptop", role, carries)
+    assert not (tmp_path / "k" / "laptop").exists()
+
+
+def test_only_a_host_of_the_folder_has_a_hosts_rules(tmp_path: Path) -> None:
+    store.init(tmp_path / "k", "chair1", [], ["alice"], [])
+    store.add(tmp_path / "k", "building-host", "host", ("building",))
+    manifest = store.load(tmp_path / "k")
+    acl = store.router_access_control(manifest, "chair1", "building-host")
+    assert {s["id"] for s in acl["subjects"]} == {"building", "upstream"}
+    chair = store.router_access_control(manifest, "chair1")
+    assert "building-host" in {s["id"] for s in chair["subjects"]}
+    with pytest.raises(ValueError, match="'alice' is not a host"):
+        store.router_access_control(manifest, "chair1", "alice")
