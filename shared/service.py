@@ -125,6 +125,10 @@ def config_from_args(args: argparse.Namespace) -> FleetConfig:
     cfg = config_mod.load(args.config, overrides)
     if args.connect:
         cfg.transport.connect = list(args.connect)
+    elif args.mode == "router":
+        # a router links to other routers only where told to (--connect): the default
+        # endpoint is a client's way to the fleet's router, maybe this one itself
+        cfg.transport.connect = []
     if args.listen:
         cfg.transport.listen = list(args.listen)
     return cfg

@@ -364,15 +364,19 @@ class Navigator:
         est = self.fleet.pose()
         where = f" at ({est.pose.x:.2f}, {est.pose.y:.2f})" if est is not None else ""
         self._new_place(est)
-        if (
-            self.recoveries >= self.cfg.max_recoveries
-            or self.recoveries_in_all >= self.cfg.max_recoveries * self.cfg.recovery_places
-        ):
+        here = self.recoveries >= self.cfg.max_recoveries
+        in_all = self.recoveries_in_all >= self.cfg.max_recoveries * self.cfg.recovery_places
+        if here or in_all:
             self.fleet.stop()
             self.fleet.event("recovery", f"given up: {cause}{where}")
+            tried = (
+                f"{self.recoveries} recoveries"
+                if here
+                else f"{self.recoveries_in_all} recoveries in this mission"
+            )
             failure = (
-                f"blocked ({cause}){where}: {self.recoveries} recoveries (back up, turn in "
-                f"place, re-plan) did not clear it"
+                f"blocked ({cause}){where}: {tried} (back up, turn in place, re-plan) did not "
+                f"clear it"
             )
             self._set("failed", reason="; then ".join([*self.fallbacks, failure]))
             return

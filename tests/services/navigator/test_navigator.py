@@ -331,6 +331,7 @@ def test_held_again_further_on_the_recoveries_count_anew_up_to_a_bound() -> None
         hold_until_replanned(nav2, fleet2)
         fleet2.x += 2.0
     assert nav2.status.state == "failed", nav2.status.reason
+    assert "2 recoveries in this mission" in nav2.status.reason, nav2.status.reason
 
 
 def blocked_with_no_room_to_turn() -> tuple[Navigator, ScriptedFleet]:
