@@ -22,6 +22,10 @@ class ChairState:
     w: float = 0.0
 
 
+SET_OFF_MPS = 0.02  # the chair sets off (casters swing round) when it speeds up past this
+KICK_DECAY_S = 0.5  # the casters' yaw kick fades with this time constant
+
+
 def _approach(current: float, target: float, max_step: float) -> float:
     return current + max(-max_step, min(max_step, target - current))
 
@@ -75,9 +79,9 @@ class Chair:
             w_target = s.w + alpha * (self.cmd[1] - s.w)
             s.v = _approach(s.v, v_target, r.max_accel * dt)
             s.w = _approach(s.w, w_target, r.max_turn_accel * dt)
-        if self.caster > 0 and self.rng is not None and abs(s.v) > 0.02 >= abs(was_v):
+        if self.caster > 0 and self.rng is not None and abs(s.v) > SET_OFF_MPS >= abs(was_v):
             self._kick = float(self.rng.normal(0.0, self.caster))  # casters swing round
-        self._kick *= math.exp(-dt / 0.5)
+        self._kick *= math.exp(-dt / KICK_DECAY_S)
         w = s.w + self._kick
         mid = s.theta + 0.5 * w * dt
         s.x += s.v * dt * math.cos(mid)

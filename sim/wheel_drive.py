@@ -25,11 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.robot import ChairState
+from sim.robot import KICK_DECAY_S, SET_OFF_MPS, ChairState
 from sim.whill_emulator import ChairModel
 
-SET_OFF_MPS = 0.02  # the chair sets off (casters swing round) when it speeds up past this
-KICK_DECAY_S = 0.5  # the casters' yaw kick fades with this time constant (as sim/robot.py)
 STILL = 1e-9  # m or rad: a step that turned the wheels less than this is no motion
 
 
