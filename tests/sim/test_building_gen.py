@@ -320,6 +320,21 @@ def test_sizes_across_seeds(built) -> None:
     assert min(rooms) >= 2.5 * 2.5 - 1e-6
 
 
+def test_doors_in_series_leave_room_beside_the_leaf(built) -> None:
+    """The room between two doors in series is 1.22 m deep plus the width of a leaf
+    swinging into it (ADA 404.2.6); b2010.m00 had 1.6 m behind an 0.85 m leaf."""
+    seen = set()
+    for b, _ in built:
+        for floor in b.plan.floors:
+            doors = {d.id: d for d in floor.doors}
+            for outer, _, gap in floor.series:
+                d = doors[outer]
+                need = 1.22 + (d.width if d.motion == "hinged" else 0.0)
+                assert gap >= need - 1e-6, (b.seed, outer, gap, need)
+                seen.add(doors[outer].motion)
+    assert seen == {"hinged", "sliding"}
+
+
 def test_lifts_open_onto_free_space(built) -> None:
     fp = Footprint()
     for b, site in built:
