@@ -9,6 +9,8 @@ can be bypassed), and some are suites reached through an ante-room. A corridor t
 narrow for a 1.5 m turning disc in front of a door is widened there by an alcove (the
 rooms along it stand back from the corridor wall to make room for it) and at its ends by
 a bay.
+Between two doors in series there is 1.22 m plus the width of a leaf swinging into that
+room (the accessible-building rule for vestibules, :func:`vestibule_depth_m`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from sim.building_gen.doors import DISC_R, Wall, place_door
+from sim.building_gen.doors import DISC_R, Wall, place_door, vestibule_depth_m
 from sim.building_gen.furnish import add_columns, furnish, place_at, place_in
 from sim.building_gen.geometry import HALF, RES, Rect, pick, rect
 from sim.building_gen.lobby import Lobby
@@ -337,6 +339,9 @@ class FloorBuilder:
             round(min(t0 + awc - 2 * HALF, f.hi - HALF), 6),
         )
         outer = self._front_door(f, r, lo, hi, ante.area)
+        if outer is not None and adc - 2 * HALF < vestibule_depth_m(outer):
+            st.rollback(mark)
+            return None
         lo, hi = round(max(t0, i0) + 2 * HALF, 6), round(min(t0 + awc, i0 + iwc) - 2 * HALF, 6)
         second = place_door(st, f.wall(r + adc), lo, hi, ante.area, inner.area) if outer else None
         if second is None or not place_in(st, f"f{self.name}_suite{n:02d}", inner, "inner"):
