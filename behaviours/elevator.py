@@ -9,9 +9,7 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from behaviours.fleet import FleetBehaviour, OpenInScans
-from shared.messages import LiftDoor, LiftMotion, Phase
-
-MODE_OFFLINE = 4  # rmf_lift_msgs LiftState.MODE_OFFLINE
+from shared.messages import LiftDoor, LiftMode, LiftMotion, Phase
 
 
 class _LiftBehaviour(FleetBehaviour):
@@ -84,7 +82,7 @@ class WaitForLift(_LiftBehaviour):
         if state is None:
             self.feedback_message = "no state from the lift yet"
             return Status.RUNNING
-        if state.current_mode == MODE_OFFLINE:
+        if state.current_mode == LiftMode.OFFLINE:
             self.bb.blocked = self.lift_id
             self.bb.failure = f"{self.name}: lift {self.lift_id} is out of service"
             self.feedback_message = "out of service"

@@ -338,6 +338,18 @@ class LiftDoor:
     OPEN = 2
 
 
+class LiftMode:
+    """``rmf_lift_msgs/LiftState`` modes; ``UNUSABLE``: a car no robot may be sent to."""
+
+    UNKNOWN = 0
+    HUMAN = 1
+    AGV = 2
+    FIRE = 3
+    OFFLINE = 4
+    EMERGENCY = 5
+    UNUSABLE = (FIRE, OFFLINE, EMERGENCY)
+
+
 class LiftMotion:
     """``rmf_lift_msgs/LiftState`` motion states."""
 

@@ -21,17 +21,17 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-from shared.messages import LiftDoor, LiftMotion, LiftRequest, LiftRequestType, LiftState
+from shared.messages import (
+    LiftDoor,
+    LiftMode,
+    LiftMotion,
+    LiftRequest,
+    LiftRequestType,
+    LiftState,
+)
 
 EPS = 1e-9
 REQUEST_LOG_LEN = 256
-
-MODE_UNKNOWN = 0
-MODE_HUMAN = 1
-MODE_AGV = 2
-MODE_FIRE = 3
-MODE_OFFLINE = 4
-MODE_EMERGENCY = 5
 
 
 class LiftFault:
@@ -177,7 +177,7 @@ class LiftSim:
         self._session_at = 0.0  # when the holder last asked
         self._lease = session_lease_s
         self.expired: list[tuple[float, str]] = []  # (when, session) of leases run out
-        self._session_mode = MODE_HUMAN
+        self._session_mode = LiftMode.HUMAN
         self._wanted_door = LiftDoor.CLOSED
         self._timed_open = False
         self._hold_deadline: float | None = None
@@ -226,7 +226,7 @@ class LiftSim:
             return f"door_state must be OPEN or CLOSED, got {req.door_state}"
         self._session, self._session_at = req.session_id, self._t
         self._session_mode = (
-            MODE_AGV if req.request_type == LiftRequestType.AGV_MODE else MODE_HUMAN
+            LiftMode.AGV if req.request_type == LiftRequestType.AGV_MODE else LiftMode.HUMAN
         )
         self._destination = req.destination_floor
         self._wanted_door = req.door_state
@@ -399,10 +399,10 @@ class LiftSim:
         return LiftMotion.UP if self._trip.z1 > self._trip.z0 else LiftMotion.DOWN
 
     def mode(self) -> int:
-        """``MODE_*`` value: OFFLINE out of service, the session's mode, else HUMAN."""
+        """The ``LiftMode``: OFFLINE out of service, the session's mode, else HUMAN."""
         if self.fault == LiftFault.OUT_OF_SERVICE:
-            return MODE_OFFLINE
-        return self._session_mode if self._session else MODE_HUMAN
+            return LiftMode.OFFLINE
+        return self._session_mode if self._session else LiftMode.HUMAN
 
     def state(self, now: float) -> LiftState:
         """Advance to ``now`` and return the lift's Open-RMF state message."""

@@ -27,6 +27,7 @@ from shared.messages import (
     Event,
     FollowStatus,
     LiftDoor,
+    LiftMode,
     LiftRequest,
     LiftRequestType,
     LiftState,
@@ -79,6 +80,7 @@ class FleetState:
         self.state_max_age_s = state_max_age_s
         self.clock: Clock | None = None
         self.avoided: set[str] = set()
+        self.lifts_reported: set[str] = set()  # lifts out of service reported this mission
         self.blocking: list[tuple[float, float, str]] = []  # marked by recoveries (map frame)
         self.session = ""
         self._pose: PoseEstimate | None = None
@@ -134,6 +136,7 @@ class FleetState:
         """Forget the checkpoints avoided so far; lift requests now hold ``<robot>-<goal_id>``."""
         self.avoided.clear()
         self.blocking.clear()
+        self.lifts_reported.clear()
         self.session = f"{self.robot}-{goal_id}"
 
     def avoid(self, checkpoint_id: str) -> None:
@@ -254,15 +257,40 @@ class FleetState:
 
     # ---- the Fleet interface: the messages its sending half publishes -------------------
 
+    def unusable_lifts(self) -> list[str]:
+        """The lifts whose current state says no robot may use them (out of service, fire,
+        emergency), by name: a route is not planned through them (Open-RMF does not send a
+        robot to an offline lift either)."""
+        return sorted(
+            name
+            for name, heard in self._lifts.items()
+            if (state := self._current(heard)) is not None
+            and state.current_mode in LiftMode.UNUSABLE
+        )
+
+    def lifts_to_report(self) -> list[tuple[str, str]]:
+        """The unusable lifts not yet reported in this mission, with why (marks them
+        reported): a route goes round them, and the mission's report says so once."""
+        why = {LiftMode.OFFLINE: "out of service", LiftMode.FIRE: "in fire mode"}
+        out = []
+        for name in self.unusable_lifts():
+            if name not in self.lifts_reported:
+                self.lifts_reported.add(name)
+                mode = self._lifts[name][1].current_mode
+                out.append((name, why.get(mode, "in emergency mode")))
+        return out
+
     def route_request(self, goal: Pose2D | None, place: str) -> RouteRequest | None:
-        """A route from the current pose around the avoided checkpoints; None without a pose."""
+        """A route from the current pose around the avoided checkpoints and the lifts out of
+        service; None without a pose."""
         if self._pose is None:
             return None
+        avoid = sorted(self.avoided | set(self.unusable_lifts()))
         return RouteRequest(
             start=self._pose.pose,
             goal=goal,
             place=place,
-            avoid=list(self.avoided),
+            avoid=avoid,
             blocked=[Pose2D(x, y, 0.0, floor) for x, y, floor in self.blocking],
             stamp=self.now(),
         )

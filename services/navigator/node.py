@@ -75,6 +75,8 @@ class ZenohFleet(FleetState):
         if req is None:
             on_done(None, "no pose estimate yet")
             return
+        for lift, why in self.lifts_to_report():
+            self.event("fallback", f"avoiding {lift}: lift {lift} is {why}")
         if self.participant is not None:
             self.participant.hold()
 

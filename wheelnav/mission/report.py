@@ -140,7 +140,8 @@ class Recorder:
             return  # the report covers the mission, not the shutdown after it
         self.collisions = max(self.collisions, msg.collisions)
         self._clearance = msg.clearance_m if msg.clearance_m < _FAR_M else None
-        self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
+        if msg.min_clearance_m < _FAR_M:  # nothing within the simulator's range: none seen
+            self.min_clearance_m = min(self.min_clearance_m, msg.min_clearance_m)
         if msg.min_clearance_away_m < min(1e6, self.min_clearance_away_m):
             self.min_clearance_away_m = msg.min_clearance_away_m
             self.away_nearest, self.away_at = msg.away_nearest, list(msg.away_at)

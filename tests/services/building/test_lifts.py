@@ -9,16 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from services.building.lifts import (
-    MODE_AGV,
-    MODE_HUMAN,
-    MODE_OFFLINE,
     LiftFault,
     LiftSim,
     LiftTiming,
     trip_profile,
 )
 from shared.codec import decode, encode
-from shared.messages import LiftDoor, LiftMotion, LiftRequest, LiftRequestType, LiftState
+from shared.messages import LiftDoor, LiftMode, LiftMotion, LiftRequest, LiftRequestType, LiftState
 
 FLOORS = {"1": 0.0, "2": 4.5, "3": 9.0, "M": 1.5}
 DT = 0.01
@@ -86,7 +83,7 @@ def test_session_calls_the_car_from_floor_1_to_floor_2() -> None:
     assert opened == pytest.approx(travel + DOOR_S, abs=DT)
     last = trace[-1][1]
     assert (last.current_floor, last.destination_floor, last.session_id) == ("2", "2", "chair1")
-    assert last.motion_state == LiftMotion.STOPPED and last.current_mode == MODE_AGV
+    assert last.motion_state == LiftMotion.STOPPED and last.current_mode == LiftMode.AGV
 
 
 def test_doors_close_fully_before_the_car_moves() -> None:
@@ -170,10 +167,10 @@ def test_second_session_is_refused_until_the_first_ends() -> None:
     assert lift.request(1.5, end("chair2")) is not None, "only the holder ends a session"
     assert lift.state(2.0).destination_floor == "2"
     assert lift.request(2.0, end("chair1")) is None
-    assert lift.state(2.0).session_id == "" and lift.mode() == MODE_HUMAN
+    assert lift.state(2.0).session_id == "" and lift.mode() == LiftMode.HUMAN
     assert lift.request(3.0, ask("chair2", "3", kind=LiftRequestType.HUMAN_MODE)) is None
     s = lift.state(3.0)
-    assert (s.session_id, s.destination_floor, s.current_mode) == ("chair2", "3", MODE_HUMAN)
+    assert (s.session_id, s.destination_floor, s.current_mode) == ("chair2", "3", LiftMode.HUMAN)
     assert [e is None for _, _, e in lift.requests] == [True, True, False, False, True, True]
 
 
@@ -249,7 +246,7 @@ def test_out_of_service_lift_refuses_sessions_and_stays_put() -> None:
     error = lift.request(0.0, ask("chair1", "2"))
     assert error is not None and "out of service" in error
     s = lift.state(30.0)
-    assert s.current_mode == MODE_OFFLINE and s.session_id == "" and lift.car_elevation == 0.0
+    assert s.current_mode == LiftMode.OFFLINE and s.session_id == "" and lift.car_elevation == 0.0
 
 
 def test_door_slow_doors_take_four_times_as_long() -> None:
@@ -331,7 +328,7 @@ def test_any_request_sequence_keeps_the_lift_consistent(fault, events) -> None:
         if s.motion_state != LiftMotion.STOPPED:
             assert s.door_state == LiftDoor.CLOSED and lifts[0].door_opening == 0.0
         if not s.session_id:
-            assert s.current_mode == MODE_HUMAN
+            assert s.current_mode == LiftMode.HUMAN
 
 
 def test_a_session_whose_holder_goes_silent_expires_after_its_lease() -> None:

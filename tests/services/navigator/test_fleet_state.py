@@ -11,6 +11,7 @@ from shared.messages import (
     DoorMode,
     DoorState,
     LiftDoor,
+    LiftMode,
     LiftRequestType,
     LiftState,
     PointCloud,
@@ -174,3 +175,31 @@ def test_on_wall_time_a_building_state_is_as_old_as_its_arrival() -> None:
     assert s.door_mode("d1") == DoorMode.OPEN
     s.on_clock(Clock(stamp=1006.0, tick=2, dt=0.1))
     assert s.door_mode("d1") is None
+
+
+def test_a_route_is_not_planned_through_a_lift_out_of_service() -> None:
+    # campaign b2011.m06: both lifts out of service, and the chair drove 100 s towards
+    # one of them, to fail there; the planner now hears it and answers "no route"
+    cfg = FleetConfig()
+    s = FleetState(
+        cfg.robot.name,
+        cfg.navigator.door_check,
+        cfg.robot.lidar_height_m,
+        cfg.robot.clearance_half_width_m,
+        state_max_age_s=5.0,
+    )
+    s.on_pose(PoseEstimate(10.0, Pose2D(1.0, 2.0, 0.5, "1"), np.eye(3)))
+    s.on_clock(Clock(stamp=10.0, tick=500, dt=0.02))
+    s.new_mission("g1")
+    s.avoid("door_ab")
+    for name, mode in (("lift_a", LiftMode.OFFLINE), ("lift_b", LiftMode.AGV)):
+        s.on_lift_state(LiftState(10.0, name, ["1", "2"], "1", "1", LiftDoor.OPEN, 0, mode, ""))
+    s.on_lift_state(LiftState(10.0, "lift_c", ["1"], "1", "1", 0, 0, LiftMode.FIRE, ""))
+    assert s.unusable_lifts() == ["lift_a", "lift_c"]
+    assert s.route_request(None, "room_b").avoid == ["door_ab", "lift_a", "lift_c"]
+    assert s.lifts_to_report() == [("lift_a", "out of service"), ("lift_c", "in fire mode")]
+    assert s.lifts_to_report() == []  # once per mission
+    s.avoid("lift_a")  # failed at it already: named once
+    assert s.route_request(None, "room_b").avoid == ["door_ab", "lift_a", "lift_c"]
+    s.on_clock(Clock(stamp=15.1, tick=755, dt=0.02))  # a state too old is no state
+    assert s.route_request(None, "room_b").avoid == ["door_ab", "lift_a"]
