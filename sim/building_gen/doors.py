@@ -32,20 +32,20 @@ DISC_R = 0.8  # the promised turning disc has a 0.75 m radius; 5 cm of margin
 STRAIGHT = 1.2  # free straight approach on both sides of a door
 LEAF = 0.05  # leaf thickness
 WIDTHS = (0.8, 1.2)  # free door width range
-# doors in series: the space between them is at least this deep, plus the width of a
-# hinged leaf swinging into it (ADA 2010 section 404.2.6: 1220 mm plus the door's width)
-VESTIBULE_M = 1.22
 
 
-def vestibule_depth_m(outer: DoorSpec) -> float:
+def vestibule_depth_m(outer: DoorSpec, vestibule_m: float) -> float:
     """The least free depth of the room between two doors in series whose first door is
-    ``outer`` (its leaf, if hinged, swings into that room), as accessible buildings have
-    it. In a shallower one a chair 1.1 m long barely turns beside the open leaf: campaign
+    ``outer`` (its leaf, if hinged, swings into that room): ``vestibule_m`` (1.22 m in
+    accessible buildings, ADA 2010 section 404.2.6) plus the width of that leaf. In a
+    shallower one a chair 1.1 m long barely turns beside the open leaf: campaign
     b2010.m00 (seed 2010 before this rule), 1.6 m behind an 0.85 m leaf, leaves a
     five-move manoeuvre keeping 5.4 cm from the leaf and the walls (a search on a 1.25 cm
     grid) and none on the 5 cm grid the controller plans on; the chair reaches each pose
-    within 3 cm."""
-    return VESTIBULE_M + (outer.width if outer.motion == "hinged" else 0.0)
+    within 3 cm. ``vestibule_m`` 0: no rule."""
+    if vestibule_m <= 0:
+        return 0.0
+    return vestibule_m + (outer.width if outer.motion == "hinged" else 0.0)
 
 
 @dataclass(frozen=True)

@@ -339,7 +339,7 @@ class FloorBuilder:
             round(min(t0 + awc - 2 * HALF, f.hi - HALF), 6),
         )
         outer = self._front_door(f, r, lo, hi, ante.area)
-        if outer is not None and adc - 2 * HALF < vestibule_depth_m(outer):
+        if outer is not None and adc - 2 * HALF < vestibule_depth_m(outer, self.opts.vestibule_m):
             st.rollback(mark)
             return None
         lo, hi = round(max(t0, i0) + 2 * HALF, 6), round(min(t0 + awc, i0 + iwc) - 2 * HALF, 6)

@@ -40,6 +40,9 @@ class GenOptions:
     hall_size_m: tuple[float, float] = (8.0, 30.0)
     hall_probability: float = 0.5
     suite_probability: float = 0.25
+    # the least free depth between two doors in series, plus a hinged leaf swinging into
+    # it (ADA 404.2.6); 0 draws them as before that rule (campaign b2010.m00's 1.6 m)
+    vestibule_m: float = 1.22
 
     def check(self) -> None:
         """Raise ValueError for options the generator cannot honour."""
@@ -50,6 +53,8 @@ class GenOptions:
             raise ValueError("floors: more than one floor needs lifts (lifts=True)")
         if self.missions < 0:
             raise ValueError(f"missions: must be >= 0, got {self.missions}")
+        if self.vestibule_m < 0:
+            raise ValueError(f"vestibule_m: must be >= 0, got {self.vestibule_m}")
         for kind in self.mission_kinds or {}:
             if kind not in MISSION_KINDS:
                 raise ValueError(f"mission_kinds: unknown kind {kind!r} ({MISSION_KINDS})")

@@ -434,7 +434,8 @@ def b10_series_room(tmp_path, leaves: bool):
     from sim.building_gen import GenOptions, generate_building
     from wheelnav.bench.mpc import Scene, lidar_scan
 
-    built = generate_building(10, tmp_path / "b10", GenOptions(floors=(1, 3)))
+    # drawn as before the vestibule rule: camp22's building 10 (its series room is 1.8 m)
+    built = generate_building(10, tmp_path / "b10", GenOptions(floors=(1, 3), vestibule_m=0.0))
     site = load_site(built.site_path / "site.yaml")
     grid = site.floors["1"].map
     door = next(d for d in site.doors if d.id == "d1_011")
