@@ -249,11 +249,19 @@ def _turn_to_exit(cp, nav: NavigatorConfig, name: str, fix: DoorFix | None = Non
 
 
 def _correct(
-    cp, name: str, p: EntryParams, clock, record, reach_m: float = 0.0
+    cp,
+    name: str,
+    p: EntryParams,
+    clock,
+    record,
+    reach_m: float = 0.0,
+    handed: Callable[[], float] | None = None,
 ) -> py_trees.behaviour.Behaviour:
     """Phase 0: dock at the checkpoint's approach pose, checked against the tolerances;
     ``reach_m``: the leg it docks instead of following, whose drive (and a manoeuvre in a
-    tight room, ``navigator.manoeuvre_allowance_s``) adds to the limit."""
+    tight room, ``navigator.manoeuvre_allowance_s``) adds to the limit; ``handed()``: what
+    the leg before left to it when it was held near its end (:class:`FollowPath`), which
+    adds the same when it starts."""
     nav = p.nav
     dock = _approach_dock(cp, nav, f"Correct {cp.id}")
     limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
@@ -262,22 +270,33 @@ def _correct(
 
     def round_about() -> float:
         """Starting more than MANOEUVRE_TURN off the approach heading, a small room may
-        need a manoeuvre (turns and short drives) to turn round: its allowance."""
+        need a manoeuvre (turns and short drives) to turn round: its allowance; taking
+        over the end of a leg, that drive's time and the allowance."""
+        left = handed() if handed is not None else 0.0
+        if left > 0.0:
+            return 2 * left / nav.correction_speed + nav.manoeuvre_allowance_s
         return nav.manoeuvre_allowance_s if dock.heading_off_rad() > MANOEUVRE_TURN else 0.0
 
     return Timeout(name, dock, limit, clock, record, extra=round_about)
 
 
 def _door_steps(
-    cp, route_id: str, p: EntryParams, clock, record, reach_m: float = 0.0
+    cp,
+    route_id: str,
+    p: EntryParams,
+    clock,
+    record,
+    reach_m: float = 0.0,
+    handed: Callable[[], float] | None = None,
 ) -> py_trees.behaviour.Behaviour:
-    """The seed's door entry: correct, turn to the exit, verify open, pass, done."""
+    """The seed's door entry: correct, turn to the exit, verify open, pass, done
+    (``reach_m``, ``handed``: :func:`_correct`)."""
     nav = p.nav
     a, e = cp.approach, cp.exit
     centre = (cp.centre.x, cp.centre.y) if cp.centre else None
     turn = _turn_to_exit(cp, nav, f"Turn {cp.id}")
     steps: list[py_trees.behaviour.Behaviour] = [
-        _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m),
+        _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m, handed),
         Timeout(f"Phase 1 {cp.id}", turn, nav.correction_timeout_s, clock, record),
     ]
     building = cp.controller  # a door without a controller is verified by LiDAR alone
@@ -475,11 +494,12 @@ def _elevator_steps(
     record,
     reach_m: float = 0.0,
     riding: bool = False,
+    handed: Callable[[], float] | None = None,
 ) -> py_trees.behaviour.Behaviour:
     """Call the car, correct, verify its door open, drive in, ride, switch floor, back out
     (LiDAR behind and lift state agreeing), release: the seed's phases on the lift protocol.
     ``riding``: the chair is in the car already (a restarted navigator): from sending the
-    car to the floor on."""
+    car to the floor on (``reach_m``, ``handed``: :func:`_correct`)."""
     nav = p.nav
     heading = np.array([np.cos(cp.approach.theta), np.sin(cp.approach.theta)])
     start = np.array([cp.approach.x, cp.approach.y])
@@ -521,7 +541,7 @@ def _elevator_steps(
     )
     steps = [
         RequestLift(cp.id, cp.floor),
-        _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m),
+        _correct(cp, f"Phase 0 {cp.id}", p, clock, record, reach_m, handed),
         Timeout(
             f"Arrive {cp.id}",
             WaitForLift(cp.id, cp.floor, door, nav.door_scans, door_width_m=cp.width_m),
@@ -640,16 +660,20 @@ def create_route_tree(
         if not docked:
             smooth = cp is not None and _smooth(cp, nav, docked)
             handover = nav.smooth_handover_m if smooth else 0.0
-            follow = FollowPath(leg, f"Follow leg {i}", handover_m=handover)
+            reach = nav.correction_reach_m if cp is not None else 0.0
+            follow = FollowPath(leg, f"Follow leg {i}", handover_m=handover, dock_within_m=reach)
             steps.append(Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record))
         if cp is None:
             continue
+        handed = None if docked else follow.handed_m
         if cp.kind == "door":
             door_at[i] = len(steps)
-            steps.append(_door_steps(cp, route_id, params, clock, record, docked))
+            steps.append(_door_steps(cp, route_id, params, clock, record, docked, handed))
         else:
             riding = len(steps) == riding_at
-            steps.append(_elevator_steps(cp, route_id, params, clock, record, docked, riding))
+            steps.append(
+                _elevator_steps(cp, route_id, params, clock, record, docked, riding, handed)
+            )
     if riding_at >= 0:
         if riding_at >= len(steps) or not steps[riding_at].name.startswith("Elevator "):
             raise ValueError(f"route step {riding_at} is not a lift")

@@ -18,6 +18,7 @@ from shared.geometry import angle_between
 from shared.messages import DoorMode, Path, Phase
 
 MOVING_M_S = 0.01  # odometry speeds above these: the chair is still moving
+HANDOVER_HELD_S = 2.0  # a path's end held by an obstacle this long is docked instead
 MOVING_RAD_S = 0.02
 
 
@@ -30,22 +31,39 @@ class FollowPath(FleetBehaviour):
     that reports ``idle`` without this path (it was restarted) gets the path again. Never
     FAILURE itself: the timeout above it bounds the wait. ``terminate`` on pre-emption
     stops the chair.
+
+    ``dock_within_m`` > 0: the path ends at a pose the next step docks at (a door's or a
+    lift's approach, with manoeuvres where turning needs them). Held by the safety gate
+    (blocked, or an obstacle for ``HANDOVER_HELD_S``) with at most that much left, it
+    hands the rest to that step (SUCCESS) instead of waiting for the navigator's
+    recoveries: campaign b2011.m06 stalled 0.8 m before an approach pose beside a leaf
+    standing open towards it, where the path's last corner left no room to turn.
     """
 
     phase = Phase.FOLLOW
 
     def __init__(
-        self, path: Path, name: str = "", phase: Phase = Phase.FOLLOW, handover_m: float = 0.0
+        self,
+        path: Path,
+        name: str = "",
+        phase: Phase = Phase.FOLLOW,
+        handover_m: float = 0.0,
+        dock_within_m: float = 0.0,
     ) -> None:
         super().__init__(name or f"Follow {path.path_id}")
         self.path = path
         self.phase = phase
         self.handover_m = handover_m
+        self.dock_within_m = dock_within_m
         self.path_id = path.path_id
         self.sent_at = 0.0
+        self.to_go = math.inf  # the controller's last distance to go on this path
+        self.docking = False
 
     def initialise(self) -> None:
         self.bb.phase = self.phase
+        self.to_go = math.inf
+        self.docking = False
         self.send()
         self.feedback_message = f"following {self.path_id}"
 
@@ -68,6 +86,7 @@ class FollowPath(FleetBehaviour):
             return False
         if status is None or status.path_id != self.path_id:
             return False
+        self.to_go = status.distance_to_goal
         self.feedback_message = (
             f"{status.state}: {100 * status.progress:.0f} %, {status.distance_to_goal:.2f} m to go"
         )
@@ -75,7 +94,23 @@ class FollowPath(FleetBehaviour):
             return True  # the next step takes over at speed (a smooth door pass)
         return status.state == "arrived"
 
+    def handed_m(self) -> float:
+        """How much of the path this step left to the next when it was held (0: none)."""
+        return self.to_go if self.docking else 0.0
+
+    def quits_when_held(self, cause: str, held_s: float) -> bool:
+        """Asked by the safety gate while it holds the chair: True (and SUCCESS at the next
+        update: the next step docks the rest) when held near the end (class doc)."""
+        held = cause == "blocked" or (cause == "obstacle" and held_s >= HANDOVER_HELD_S)
+        if held and self.to_go <= self.dock_within_m:
+            self.docking = True
+            return True
+        return False
+
     def update(self) -> Status:
+        if self.docking:
+            self.feedback_message = f"held {self.to_go:.2f} m before the end: docking the rest"
+            return Status.SUCCESS
         return Status.SUCCESS if self.arrived() else Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:

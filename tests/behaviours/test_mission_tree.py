@@ -837,3 +837,41 @@ def test_a_door_seen_where_the_map_has_it_is_passed_without_lining_up_again() ->
     assert fleet.sent[-1].path_id == "r.door.d1"
     assert fleet.sent[-1].waypoints[:, 1] == pytest.approx(0.0)
     assert not any(kind == "door_located" for kind, _ in fleet.events)
+
+
+def test_a_leg_held_near_its_end_is_docked_the_rest_of_the_way() -> None:
+    """Campaign b2011.m06: the follower stalled 0.8 m before an approach pose beside a leaf
+    standing open towards the chair (the path's last corner left no room to turn there)
+    and reported blocked; three recoveries later the mission failed. Held near the end of
+    a leg to a door, the rest goes to Phase 0, which docks with manoeuvres."""
+    blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet)
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"
+    _following(fleet, 2.0)  # held far from the end: the navigator's recoveries, later
+    tree.tick()
+    fleet.follow = FollowStatus(fleet.t, "r.0", "blocked", 0.6, 2.0, 0.0)
+    for _ in range(5):
+        fleet.t += 0.5
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"
+    fleet.follow = FollowStatus(fleet.t, "r.0", "following", 0.8, 0.8, 0.0)
+    tree.tick()
+    fleet.t += 0.6
+    fleet.follow = FollowStatus(fleet.t, "r.0", "following", 0.8, 0.8, 0.0)
+    tree.tick()  # that hold is over
+    fleet.follow = FollowStatus(fleet.t, "r.0", "obstacle", 0.8, 0.8, 0.0)
+    for _ in range(3):  # an obstacle for 1.5 s: a pedestrian's moment, still following
+        fleet.t += 0.5
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.0"
+    fleet.follow = FollowStatus(fleet.t, "r.0", "blocked", 0.8, 0.8, 0.0)
+    fleet.t += 0.5
+    tree.tick()
+    assert fleet.sent[-1].path_id == "Correct d1 #1"
+    assert ("safety_stop", "blocked: Follow leg 0 gives up while held") in fleet.events
+    nav = NavigatorConfig()  # Phase 0 gets the drive's time and a manoeuvre's
+    phase0 = next(b for b in tree.root.iterate() if b.name == "Phase 0 d1")
+    extra = 2 * 0.8 / nav.correction_speed + nav.manoeuvre_allowance_s
+    assert phase0.limit == pytest.approx(nav.correction_timeout_s + extra)
