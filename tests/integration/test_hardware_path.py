@@ -109,3 +109,8 @@ def test_the_demo_succeeds_through_the_drivers_whatever_their_clock(offset_s: fl
     held = stale_holds(report["events"])
     assert all(s <= STALE_BLIP_S for s in held), (held, report["events"])
     assert sum(held) <= 0.1 * report["wall_time_s"], (held, report["wall_time_s"])
+    # the report's times are the mission's, not a host's clock (they were epoch seconds)
+    end = report["sim_time_s"]
+    assert 0.0 < end <= load_scenario(DEMO).time_limit_s, end
+    times = [p["start_s"] for p in report["phases"]] + [e["t"] for e in report["events"]]
+    assert all(0.0 <= t <= end + 1.0 for t in times), (end, times[:5])

@@ -15,7 +15,7 @@ from shared.credentials import ROUTER, secure_endpoint
 from shared.service import add_override_argument, add_transport_arguments
 from shared.topics import Keys
 from wheelnav.launcher.compose import render_compose
-from wheelnav.launcher.fleet import PROFILES, pick, services_for
+from wheelnav.launcher.fleet import PROFILE_SETTINGS, PROFILES, pick, services_for
 from wheelnav.launcher.supervisor import Supervisor, open_router, wait_ready
 from wheelnav.security import store
 from wheelnav.security.acl import UPSTREAM
@@ -160,8 +160,7 @@ def run_up(args: argparse.Namespace) -> int:
             specs = pick(specs, args.services)
         except ValueError as exc:
             raise config_mod.ConfigError(str(exc)) from None
-    if args.profile == "hardware":
-        extra += ["--set", "clock=wall"]
+    extra += [a for o in PROFILE_SETTINGS.get(args.profile, ()) for a in ("--set", o)]
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())

@@ -89,6 +89,18 @@ SERVICES: tuple[ServiceSpec, ...] = (
 # hardware_path: the simulator (with sim.hardware_path) behind the drivers' serial and UDP
 # links, on wall time on one host (a pseudo terminal joins sim and driver): docs/hardware.md
 PROFILES = ("sim", "hardware", "hardware_path")
+# what a profile cannot run without, set by ``wheelnav up --profile`` after the user's own
+# ``--set`` (a driver on a real chair has no simulated clock; the emulated chair moves in
+# real time): sim/hardware_path.py names the same keys
+PROFILE_SETTINGS = {
+    "hardware": ("clock=wall",),
+    "hardware_path": (
+        "clock=wall",
+        "sim.lockstep=false",
+        "sim.realtime_factor=1",
+        "sim.hardware_path=true",
+    ),
+}
 
 
 def viz_recorder(rrd_path: str) -> ServiceSpec:

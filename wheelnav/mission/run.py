@@ -14,6 +14,7 @@ temporary folder and the LiDAR's packets go to a free UDP port.
 
 from __future__ import annotations
 
+import dataclasses
 import socket
 import sys
 import tempfile
@@ -105,6 +106,10 @@ class MissionRun:
         self._last_progress = -PROGRESS_EVERY_S
         self._last_status: NavStatus | None = None
         self._bus: Bus | None = None
+        # on wall time every service stamps from its host's clock (the drivers' may be
+        # an hour off): the report's times are the simulator's clock when a message came
+        self._arrival = scenario.config.clock == "wall"
+        self._now = 0.0
 
     def run(self) -> dict[str, Any]:
         """Run to the end and return the report."""
@@ -194,7 +199,7 @@ class MissionRun:
         bus.subscribe(
             keys.pose,
             PoseEstimate,
-            lambda m: self.recorder.on_pose(m.stamp, m.pose.x, m.pose.y, m.pose.theta),
+            lambda m: self.recorder.on_pose(self._t(m.stamp), m.pose.x, m.pose.y, m.pose.theta),
         )
         bus.subscribe(keys.key("events"), Event, self._on_event)
         bus.subscribe(keys.key("diagnostics"), Diagnostics, self.recorder.on_diagnostics)
@@ -202,7 +207,7 @@ class MissionRun:
             keys.key("door_state"),
             DoorState,
             lambda m: self.recorder.checkpoints.on_door_state(
-                m.stamp, m.door_name, m.current_mode == DoorMode.OPEN
+                self._t(m.stamp), m.door_name, m.current_mode == DoorMode.OPEN
             ),
         )
 
@@ -213,7 +218,13 @@ class MissionRun:
         stages = self.scenario.config.sim.lockstep_stages
         return next((i for i, names in enumerate(stages) if NAME in names), 0)
 
+    def _t(self, stamp: float) -> float:
+        """A message's time for the report: its stamp, or on wall time the simulator's
+        clock when it came (the services' stamps are their hosts' clocks)."""
+        return self._now if self._arrival else stamp
+
     def _step(self, clock: Clock) -> None:
+        self._now = clock.stamp
         if not self._goal_sent:
             s = self.scenario
             self._bus.publish(
@@ -234,6 +245,7 @@ class MissionRun:
             self.done.set()
 
     def _on_status(self, msg: NavStatus) -> None:
+        msg = dataclasses.replace(msg, stamp=self._t(msg.stamp))
         self._last_status = msg
         if msg.goal_id == self.goal_id and not self.recorder.finished:
             self.recorder.checkpoints.on_status(msg.stamp, msg.action, msg.phase)
@@ -254,7 +266,12 @@ class MissionRun:
 
     def _on_event(self, msg: Event) -> None:
         self.recorder.events.append(
-            {"t": round(msg.stamp, 3), "source": msg.source, "kind": msg.kind, "detail": msg.detail}
+            {
+                "t": round(self._t(msg.stamp), 3),
+                "source": msg.source,
+                "kind": msg.kind,
+                "detail": msg.detail,
+            }
         )
 
     def _say(self, text: str) -> None:

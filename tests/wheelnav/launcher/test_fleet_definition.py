@@ -76,3 +76,17 @@ def test_up_names_a_service_its_profile_lacks_in_one_line(capsys) -> None:
     assert main(["up", "--services", "driver"]) == 2  # the sim profile has no driver
     err = capsys.readouterr().err
     assert "driver not in the profile" in err and err.count("\n") == 1
+
+
+def test_up_gives_the_hardware_path_the_settings_it_cannot_run_without() -> None:
+    # `wheelnav up --profile hardware_path` needed four --set flags, or the simulator
+    # refused to start; the profile now brings them, and they are the ones it checks
+    from shared import config as config_mod
+    from sim.hardware_path import check_hardware_path
+    from wheelnav.launcher.fleet import PROFILE_SETTINGS
+
+    with pytest.raises(config_mod.ConfigError, match="clock: must be 'wall'"):
+        check_hardware_path(config_mod.load(None, ["sim.hardware_path=true"]))
+    settings = list(PROFILE_SETTINGS["hardware_path"])
+    check_hardware_path(config_mod.load(None, settings))  # runs as it is
+    assert "clock=wall" in PROFILE_SETTINGS["hardware"]
