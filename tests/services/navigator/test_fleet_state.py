@@ -21,13 +21,14 @@ from shared.messages import (
 from tests.shared.test_door_scan import _cast
 
 
-def state() -> FleetState:
+def state(**kwargs) -> FleetState:
     cfg = FleetConfig()
     return FleetState(
         cfg.robot.name,
         cfg.navigator.door_check,
         cfg.robot.lidar_height_m,
         cfg.robot.clearance_half_width_m,
+        **kwargs,
     )
 
 
@@ -139,14 +140,7 @@ def test_the_doorways_in_the_latest_scan_are_given_on_the_map() -> None:
 def test_a_building_state_older_than_its_limit_counts_as_none() -> None:
     # a silent building (its link cut) leaves no OPEN behind: the door step waits and
     # times out as when nobody answers (issue 16 item 6)
-    cfg = FleetConfig()
-    s = FleetState(
-        cfg.robot.name,
-        cfg.navigator.door_check,
-        cfg.robot.lidar_height_m,
-        cfg.robot.clearance_half_width_m,
-        state_max_age_s=5.0,
-    )
+    s = state(state_max_age_s=5.0)
     s.on_door_state(DoorState(10.0, "d1", DoorMode.OPEN))
     s.on_lift_state(LiftState(10.0, "lift_a", ["1"], "1", "1", LiftDoor.OPEN, 0, 2, ""))
     s.on_clock(Clock(stamp=15.0, tick=750, dt=0.02))
@@ -180,14 +174,7 @@ def test_on_wall_time_a_building_state_is_as_old_as_its_arrival() -> None:
 def test_a_route_is_not_planned_through_a_lift_out_of_service() -> None:
     # campaign b2011.m06: both lifts out of service, and the chair drove 100 s towards
     # one of them, to fail there; the planner now hears it and answers "no route"
-    cfg = FleetConfig()
-    s = FleetState(
-        cfg.robot.name,
-        cfg.navigator.door_check,
-        cfg.robot.lidar_height_m,
-        cfg.robot.clearance_half_width_m,
-        state_max_age_s=5.0,
-    )
+    s = state(state_max_age_s=5.0)
     s.on_pose(PoseEstimate(10.0, Pose2D(1.0, 2.0, 0.5, "1"), np.eye(3)))
     s.on_clock(Clock(stamp=10.0, tick=500, dt=0.02))
     s.new_mission("g1")
