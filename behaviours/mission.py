@@ -620,6 +620,43 @@ def _docked_instead(leg: Path, after_door: bool, nav) -> float:
     return 0.0
 
 
+def _end_dock(leg: Path, nav, name: str) -> DockAt | None:
+    """Dock at the end of ``leg`` facing along its last segment, as Phase 0 docks (with
+    manoeuvres where turning needs them); None for a leg of one point."""
+    pts = np.asarray(leg.waypoints, float)
+    if len(pts) < 2:
+        return None
+    (x0, y0), (x1, y1) = pts[-2], pts[-1]
+    return DockAt(
+        name,
+        Phase.FOLLOW,
+        leg.floor,
+        (float(x1), float(y1)),
+        math.atan2(y1 - y0, x1 - x0),
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        nav.heading_tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
+    )
+
+
+def _last_leg(
+    leg: Path, i: int, follow: py_trees.behaviour.Behaviour, nav, clock, record
+) -> py_trees.behaviour.Behaviour:
+    """The route's last leg when it starts at a door and is shorter than
+    ``correction_reach_m``: docked first, followed if docking fails. Campaign b3002.m07:
+    0.75 m from a door's exit pose beside a wall to the goal, the path follower found no
+    way to turn there (blocked at once) and the recoveries' manoeuvres passed 3.8 cm from
+    the wall."""
+    dock = _end_dock(leg, nav, f"Dock leg {i}")
+    if dock is None:
+        return follow
+    limit = nav.correction_timeout_s + 2 * _leg_length(leg) / nav.correction_speed
+    docked = Timeout(f"Dock leg {i}", dock, limit + nav.manoeuvre_allowance_s, clock, record)
+    return py_trees.composites.Selector(f"Leg {i}", memory=True, children=[docked, follow])
+
+
 def _opens_early(cp) -> bool:
     """True if door ``cp`` is asked to open before the chair comes near it: a powered door
     whose leaf sweeps the approach pose (campaign b1005.m08: a leaf opening towards a
@@ -662,7 +699,10 @@ def create_route_tree(
             handover = nav.smooth_handover_m if smooth else 0.0
             reach = nav.correction_reach_m if cp is not None else 0.0
             follow = FollowPath(leg, f"Follow leg {i}", handover_m=handover, dock_within_m=reach)
-            steps.append(Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record))
+            step = Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record)
+            if cp is None and after_door and _leg_length(leg) < nav.correction_reach_m:
+                step = _last_leg(leg, i, step, nav, clock, record)
+            steps.append(step)
         if cp is None:
             continue
         handed = None if docked else follow.handed_m

@@ -875,3 +875,36 @@ def test_a_leg_held_near_its_end_is_docked_the_rest_of_the_way() -> None:
     phase0 = next(b for b in tree.root.iterate() if b.name == "Phase 0 d1")
     extra = 2 * 0.8 / nav.correction_speed + nav.manoeuvre_allowance_s
     assert phase0.limit == pytest.approx(nav.correction_timeout_s + extra)
+
+
+def test_a_short_last_leg_after_a_door_is_docked_then_followed_if_docking_fails() -> None:
+    """Campaign b3002.m07: from a door's exit pose beside a wall to the goal 0.75 m away,
+    the path follower found no way to turn (blocked at once) and the recoveries'
+    manoeuvres passed 3.8 cm from the wall. A last leg that short after a door is docked
+    (Phase 0's docking, with manoeuvres), and followed as before if that fails."""
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    short = leg("r.1", (3.2, 0.0), (3.7, 0.5))  # 0.71 m
+    tree = route_tree(RouteReply(True, leg("r"), legs=[leg("r.0"), short], checkpoints=[cp]), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):
+        tree.tick()
+    located(tree)
+    assert fleet.sent[-1].path_id == "r.door.d1"
+    fleet.arrive()
+    tree.tick()
+    for attempt in (1, 2, 3):
+        sent = fleet.sent[-1]
+        assert sent.path_id == f"Dock leg 1 #{attempt}"
+        assert sent.dock_heading == pytest.approx(math.pi / 4)
+        fleet.arrive(off=(0.3, 0.0))  # the pose disagrees: docking fails in the end
+        tree.tick()
+    assert fleet.sent[-1].path_id == "r.1"  # followed, as every leg was before
+    fleet.arrive()
+    tree.tick()
+    assert tree.root.status == Status.SUCCESS, bb.failure
+    # a long last leg, or one not after a door, is followed at once
+    assert not any(b.name.startswith("Dock leg") for b in route_tree(ROUTE, fleet).root.iterate())
