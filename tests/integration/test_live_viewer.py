@@ -5,6 +5,7 @@ then read back (entities the fleet's topics feed, and the layout)."""
 
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import subprocess
@@ -22,9 +23,17 @@ RERUN = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
 class Proc:
     """A child process whose output lines are collected as they come."""
 
-    def __init__(self, *cmd: str, cwd: Path = ROOT) -> None:
+    def __init__(self, *cmd: str, cwd: Path = ROOT, group: bool = False) -> None:
+        # group: the command starts children of its own (the ``rerun`` script runs the
+        # viewer's binary), stopped with it; they outlived the test before
+        self.group = group
         self.proc = subprocess.Popen(
-            cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+            cmd,
+            cwd=cwd,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            start_new_session=group,
         )
         self.lines: list[str] = []
         threading.Thread(target=lambda: self.lines.extend(self.proc.stdout), daemon=True).start()
@@ -38,12 +47,24 @@ class Proc:
 
     def stop(self, timeout_s: float = 30.0) -> int:
         if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
+            self._signal(signal.SIGINT)
         try:
             return self.proc.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
             self.proc.kill()
             return self.proc.wait()
+        finally:
+            if self.group:
+                self._signal(signal.SIGKILL)  # whatever of the group is left
+
+    def _signal(self, sig: int) -> None:
+        try:
+            if self.group:
+                os.killpg(self.proc.pid, sig)
+            else:
+                self.proc.send_signal(sig)
+        except ProcessLookupError:
+            pass
 
     def text(self) -> str:
         return "".join(self.lines)[-3000:]
@@ -61,7 +82,7 @@ def test_a_viewer_receives_the_live_stream_of_a_running_fleet(tmp_path) -> None:
     viewer = viz = None
     try:
         fleet.wait_for("fleet up", 90)
-        viewer = Proc(RERUN, "--port", str(port), "--save", str(rrd), cwd=tmp_path)
+        viewer = Proc(RERUN, "--port", str(port), "--save", str(rrd), cwd=tmp_path, group=True)
         viewer.wait_for("Listening for gRPC", 30)
         url = f"rerun+http://127.0.0.1:{port}/proxy"
         viz = wheelnav("viz", "--connect", endpoint, "--viewer", url)
