@@ -209,20 +209,50 @@ def doorway(cp) -> np.ndarray | None:
     return np.array([[cx - ax, cy - ay, cx + ax, cy + ay]])
 
 
+def _dock_at(
+    name: str,
+    phase: Phase,
+    floor: str,
+    target: tuple[float, float],
+    heading: float | None,
+    nav: NavigatorConfig,
+    tolerance_deg: float,
+    **kwargs,
+) -> DockAt:
+    """A :class:`DockAt` at the navigator's correction speed, tolerance, attempts and
+    stall limit (``kwargs``: ``face``, ``keep_out``, ``fix``)."""
+    return DockAt(
+        name,
+        phase,
+        floor,
+        target,
+        heading,
+        nav.correction_speed,
+        nav.position_tolerance_m,
+        tolerance_deg,
+        nav.correction_attempts,
+        nav.correction_stall_s,
+        **kwargs,
+    )
+
+
+def _drive_s(nav: NavigatorConfig, reach_m: float) -> float:
+    """The time a docking that also drives ``reach_m`` gets beyond its own limit: there
+    and back at ``correction_speed`` and a manoeuvre's allowance (a tight room)."""
+    return 2 * reach_m / nav.correction_speed + nav.manoeuvre_allowance_s
+
+
 def _approach_dock(cp, nav: NavigatorConfig, name: str, fix: DoorFix | None = None) -> DockAt:
     """Dock at the checkpoint's approach pose facing its approach heading (Phase 0)."""
     a = cp.approach
-    return DockAt(
+    return _dock_at(
         name,
         Phase.CORRECT,
         cp.floor,
         (a.x, a.y),
         a.theta,
-        nav.correction_speed,
-        nav.position_tolerance_m,
+        nav,
         nav.heading_tolerance_deg,
-        nav.correction_attempts,
-        nav.correction_stall_s,
         keep_out=doorway(cp),
         fix=fix,
     )
@@ -231,17 +261,14 @@ def _approach_dock(cp, nav: NavigatorConfig, name: str, fix: DoorFix | None = No
 def _turn_to_exit(cp, nav: NavigatorConfig, name: str, fix: DoorFix | None = None) -> DockAt:
     """Turn on the spot to face the checkpoint's exit pose (Phase 1)."""
     a, e = cp.approach, cp.exit
-    return DockAt(
+    return _dock_at(
         name,
         Phase.TURN,
         cp.floor,
         (a.x, a.y),
         None,
-        nav.correction_speed,
-        nav.position_tolerance_m,
+        nav,
         nav.turn_tolerance_deg,
-        nav.correction_attempts,
-        nav.correction_stall_s,
         face=(e.x, e.y),
         keep_out=doorway(cp),
         fix=fix,
@@ -264,9 +291,9 @@ def _correct(
     adds the same when it starts."""
     nav = p.nav
     dock = _approach_dock(cp, nav, f"Correct {cp.id}")
-    limit = nav.correction_timeout_s + 2 * reach_m / nav.correction_speed
+    limit = nav.correction_timeout_s
     if reach_m > 0:
-        return Timeout(name, dock, limit + nav.manoeuvre_allowance_s, clock, record)
+        return Timeout(name, dock, limit + _drive_s(nav, reach_m), clock, record)
 
     def round_about() -> float:
         """Starting more than MANOEUVRE_TURN off the approach heading, a small room may
@@ -274,7 +301,7 @@ def _correct(
         over the end of a leg, that drive's time and the allowance."""
         left = handed() if handed is not None else 0.0
         if left > 0.0:
-            return 2 * left / nav.correction_speed + nav.manoeuvre_allowance_s
+            return _drive_s(nav, left)
         return nav.manoeuvre_allowance_s if dock.heading_off_rad() > MANOEUVRE_TURN else 0.0
 
     return Timeout(name, dock, limit, clock, record, extra=round_about)
@@ -627,18 +654,9 @@ def _end_dock(leg: Path, nav, name: str) -> DockAt | None:
     if len(pts) < 2:
         return None
     (x0, y0), (x1, y1) = pts[-2], pts[-1]
-    return DockAt(
-        name,
-        Phase.FOLLOW,
-        leg.floor,
-        (float(x1), float(y1)),
-        math.atan2(y1 - y0, x1 - x0),
-        nav.correction_speed,
-        nav.position_tolerance_m,
-        nav.heading_tolerance_deg,
-        nav.correction_attempts,
-        nav.correction_stall_s,
-    )
+    heading = math.atan2(y1 - y0, x1 - x0)
+    target = (float(x1), float(y1))
+    return _dock_at(name, Phase.FOLLOW, leg.floor, target, heading, nav, nav.heading_tolerance_deg)
 
 
 def _last_leg(
@@ -652,8 +670,8 @@ def _last_leg(
     dock = _end_dock(leg, nav, f"Dock leg {i}")
     if dock is None:
         return follow
-    limit = nav.correction_timeout_s + 2 * _leg_length(leg) / nav.correction_speed
-    docked = Timeout(f"Dock leg {i}", dock, limit + nav.manoeuvre_allowance_s, clock, record)
+    limit = nav.correction_timeout_s + _drive_s(nav, _leg_length(leg))
+    docked = Timeout(f"Dock leg {i}", dock, limit, clock, record)
     return py_trees.composites.Selector(f"Leg {i}", memory=True, children=[docked, follow])
 
 

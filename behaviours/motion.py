@@ -18,8 +18,8 @@ from shared.geometry import angle_between
 from shared.messages import DoorMode, Path, Phase
 
 MOVING_M_S = 0.01  # odometry speeds above these: the chair is still moving
-HANDOVER_HELD_S = 2.0  # a path's end held by an obstacle this long is docked instead
 MOVING_RAD_S = 0.02
+HANDOVER_HELD_S = 2.0  # a path's end held by an obstacle this long is docked instead
 
 
 class FollowPath(FleetBehaviour):

@@ -43,6 +43,14 @@ WARNING_EVENTS = ("safety_stop", "fallback")
 T = TypeVar("T")
 
 
+# why a lift in a LiftMode.UNUSABLE mode is left out, in the event that says so
+UNUSABLE_WHY = {
+    LiftMode.FIRE: "in fire mode",
+    LiftMode.OFFLINE: "out of service",
+    LiftMode.EMERGENCY: "in emergency mode",
+}
+
+
 class FleetState:
     """Latest messages, LiDAR checks, avoid set and lift session of one chair's navigator.
 
@@ -271,13 +279,11 @@ class FleetState:
     def lifts_to_report(self) -> list[tuple[str, str]]:
         """The unusable lifts not yet reported in this mission, with why (marks them
         reported): a route goes round them, and the mission's report says so once."""
-        why = {LiftMode.OFFLINE: "out of service", LiftMode.FIRE: "in fire mode"}
         out = []
         for name in self.unusable_lifts():
             if name not in self.lifts_reported:
                 self.lifts_reported.add(name)
-                mode = self._lifts[name][1].current_mode
-                out.append((name, why.get(mode, "in emergency mode")))
+                out.append((name, UNUSABLE_WHY[self._lifts[name][1].current_mode]))
         return out
 
     def route_request(self, goal: Pose2D | None, place: str) -> RouteRequest | None:

@@ -270,13 +270,19 @@ def located(tree) -> None:
         tree.tick()
 
 
-def passing(kind: str) -> tuple[py_trees.trees.BehaviourTree, ScriptedFleet]:
-    """A tree at the pass of a ``kind`` door centred at (2, 0), found open."""
+def passing(
+    kind: str, after: Path | None = None
+) -> tuple[py_trees.trees.BehaviourTree, ScriptedFleet]:
+    """A tree at the pass of a ``kind`` door centred at (2, 0), found open; ``after``:
+    the leg from its exit pose (else :func:`route`'s)."""
     blackboard()
     fleet = ScriptedFleet(None)
     cp = door(kind)
     cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
-    tree = route_tree(route(cp), fleet)
+    reply = route(cp)
+    if after is not None:
+        reply = RouteReply(True, reply.path, legs=[reply.legs[0], after], checkpoints=[cp])
+    tree = route_tree(reply, fleet)
     to_the_door(tree, fleet)
     fleet.doors["d1"] = DoorMode.OPEN
     for _ in range(3):
@@ -882,18 +888,9 @@ def test_a_short_last_leg_after_a_door_is_docked_then_followed_if_docking_fails(
     the path follower found no way to turn (blocked at once) and the recoveries'
     manoeuvres passed 3.8 cm from the wall. A last leg that short after a door is docked
     (Phase 0's docking, with manoeuvres), and followed as before if that fails."""
-    bb = blackboard()
-    fleet = ScriptedFleet(None)
-    cp = door()
-    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
-    short = leg("r.1", (3.2, 0.0), (3.7, 0.5))  # 0.71 m
-    tree = route_tree(RouteReply(True, leg("r"), legs=[leg("r.0"), short], checkpoints=[cp]), fleet)
-    to_the_door(tree, fleet)
-    fleet.doors["d1"] = DoorMode.OPEN
-    for _ in range(3):
-        tree.tick()
-    located(tree)
-    assert fleet.sent[-1].path_id == "r.door.d1"
+    tree, fleet = passing("manual", after=leg("r.1", (3.2, 0.0), (3.7, 0.5)))  # 0.71 m
+    bb = py_trees.blackboard.Client(name="test", namespace="/mission")
+    bb.register_key("failure", access=py_trees.common.Access.READ)
     fleet.arrive()
     tree.tick()
     for attempt in (1, 2, 3):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from services.navigator.fleet_state import FleetState
+from services.navigator.fleet_state import UNUSABLE_WHY, FleetState
 from shared.config import DoorCheckConfig, FleetConfig
 from shared.messages import (
     Clock,
@@ -186,6 +186,7 @@ def test_a_route_is_not_planned_through_a_lift_out_of_service() -> None:
     assert s.route_request(None, "room_b").avoid == ["door_ab", "lift_a", "lift_c"]
     assert s.lifts_to_report() == [("lift_a", "out of service"), ("lift_c", "in fire mode")]
     assert s.lifts_to_report() == []  # once per mission
+    assert set(UNUSABLE_WHY) == set(LiftMode.UNUSABLE)  # every such mode says why
     s.avoid("lift_a")  # failed at it already: named once
     assert s.route_request(None, "room_b").avoid == ["door_ab", "lift_a", "lift_c"]
     s.on_clock(Clock(stamp=15.1, tick=755, dt=0.02))  # a state too old is no state
