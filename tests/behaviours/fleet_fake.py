@@ -63,6 +63,7 @@ class ScriptedFleet:
         self.marked = 0
         self.turning = 0.0  # the turn rate odometry reports (rad/s): a chair at work
         self.forgotten = 0
+        self.untraversed: list[tuple[str, np.ndarray]] = []  # (floor, points) marked
         self.no_pose = False  # True: no pose estimate yet
 
     def now(self) -> float:
@@ -134,6 +135,10 @@ class ScriptedFleet:
     def mark_blocking(self) -> int:
         self.marked += 1
         return 3
+
+    def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
+        self.untraversed.append((floor, points))
+        return len(points)
 
     def forget_blocking(self) -> None:
         self.forgotten += 1

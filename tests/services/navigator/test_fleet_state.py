@@ -93,6 +93,19 @@ def test_marked_blocking_points_go_into_the_next_route_request() -> None:
     assert len(req.blocked) == 7 and abs(req.blocked[0].x - 3.2) < 1e-6
     encode(req)  # float32 scan values would not go on the wire
     assert not fleet.room_to_turn(1.3) and fleet.room_to_turn(1.1)
+    stretch = np.array([[2.5, 1.0], [2.6, 1.0], [2.7, 1.0]])
+    assert fleet.mark_untraversed("1", stretch) == 3
+    req = fleet.route_request(None, "room_b")
+    assert [(u.x, u.y, u.floor) for u in req.untraversed] == [
+        (2.5, 1.0, "1"),
+        (2.6, 1.0, "1"),
+        (2.7, 1.0, "1"),
+    ]
+    assert len(req.blocked) == 7
+    encode(req)
+    fleet.forget_blocking()
+    req = fleet.route_request(None, "room_b")
+    assert req.blocked == [] and req.untraversed == []
 
 
 def test_a_powered_door_is_closed_only_once_its_leaf_cannot_reach_the_chair() -> None:

@@ -560,3 +560,36 @@ def test_held_again_after_a_recovery_it_also_manoeuvres_onto_the_route() -> None
         )
         step(nav, fleet)
     assert onto_per_recovery == [False, True], fleet.events
+
+
+def test_held_on_a_leg_the_stretch_ahead_is_marked_untraversed_for_the_re_plan() -> None:
+    """Campaign b3003.m08: the path entered a 0.95 m gap between a table and a wall from
+    the diagonal, the controller could not swing the chair in, and every re-plan after a
+    recovery took the same gap: the scan points it marked (the table, the wall) are on the
+    map already. Held while following a leg, the recovery also marks the leg's stretch
+    just ahead of the chair as untraversed (the planner goes another way if there is
+    one); held in a door's steps, it marks none (the door is the way)."""
+    long_leg = RouteReply(True, leg("a", (-2, 0), (6, 0)), legs=[leg("a.0", (-2, 0), (6, 0))])
+    fleet = ScriptedFleet(long_leg)
+    nav, _out = navigator(fleet, max_recoveries=1, recovery_wait_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    hold_until_replanned(nav, fleet)
+    assert nav.status.state == "running", nav.status.reason
+    ((floor, pts),) = fleet.untraversed
+    assert floor == "1"
+    assert np.allclose(pts[:, 1], 0.0)  # on the leg
+    front = FleetConfig().robot.footprint.front
+    assert 0.3 <= pts[0, 0] <= 0.6 and front + 0.9 <= pts[-1, 0] <= front + 1.1, pts
+    assert any("untraversed" in d for k, d in fleet.events if k == "recovery"), fleet.events
+
+    fleet2 = ScriptedFleet(route(door()))
+    nav2, _ = navigator(fleet2, max_recoveries=1, recovery_wait_s=5.0)
+    nav2.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav2, fleet2)
+    for _ in ("leg 0", "correct"):
+        fleet2.arrive()
+        step(nav2, fleet2)
+    assert nav2.status.phase == Phase.TURN, nav2.status
+    hold_until_replanned(nav2, fleet2)
+    assert fleet2.untraversed == []

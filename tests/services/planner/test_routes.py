@@ -154,3 +154,56 @@ def test_points_that_wall_off_the_only_way_are_dropped_not_a_dead_end(
     around = routes.request((2.0, 2.7), "1", None, "", "room_b", blocked=aside)
     first = around.legs[0].waypoints
     assert np.min(np.hypot(first[:, 0] - 3.5, first[:, 1] - 2.7)) > 0.3
+
+
+def gap_site(tmp_path, closed_below: bool):
+    """A 10 x 6 m room with a table 0.6 x 1.2 m that leaves a 0.95 m gap to the top wall;
+    below it the room is open, or (``closed_below``) a block 2 m deep fills the room's
+    width below the gap (a passage, no doorway)."""
+    from tests.services.planner.test_door_poses import make_site
+
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 6 - t, 10, 6), (0, 0, t, 6), (10 - t, 0, 10, 6)]
+    walls.append((5.5, 3.65, 6.1, 4.85))  # the table: 0.95 m below the wall's face (5.8)
+    if closed_below:
+        walls.append((5.5, 0, 7.5, 4.85))
+    return make_site(tmp_path, walls, [], [], (10, 6))
+
+
+def test_a_gap_the_chair_could_not_enter_is_avoided_where_there_is_another_way(
+    tmp_path,
+) -> None:
+    """Campaign b3003.m08: the path ran through a 0.95 m gap between a table and a wall,
+    entered from the diagonal; the controller could not swing the chair in, and each
+    re-plan after a recovery took the same gap (the scan points it marked, the table and
+    the wall, are on the map already). The stretch of the leg the chair was held on,
+    marked untraversed, sends the re-plan the other way round the table."""
+    site = gap_site(tmp_path, closed_below=False)
+    routes = RoutePlanner(Planner(site, RobotConfig(), PlannerConfig()), site, PlannerConfig())
+    start, goal = (8.0, 4.4), (2.0, 5.2)
+
+    def near_gap(route) -> float:
+        pts = route.legs[0].waypoints
+        return float(np.min(np.hypot(pts[:, 0] - 5.8, pts[:, 1] - 5.33)))
+
+    assert near_gap(routes.request(start, "1", goal, "1")) < 0.2  # the premise: the gap
+    stretch = [(x, 5.3, "1") for x in np.arange(5.2, 6.8, 0.1)]
+    around = routes.request(start, "1", goal, "1", untraversed=stretch)
+    assert near_gap(around) > 0.8
+    assert np.min(around.legs[0].waypoints[:, 1]) < 3.65  # below the table
+
+
+def test_untraversed_marks_that_shut_every_way_are_dropped_before_the_blocking_ones(
+    tmp_path,
+) -> None:
+    """The stretch is a hint given up first: where the gap is the only way, the re-plan
+    takes it, still round what the scans marked as blocking."""
+    site = gap_site(tmp_path, closed_below=True)
+    routes = RoutePlanner(Planner(site, RobotConfig(), PlannerConfig()), site, PlannerConfig())
+    start, goal = (8.0, 4.4), (2.0, 5.2)
+    stretch = [(x, 5.3, "1") for x in np.arange(5.2, 6.8, 0.1)]
+    person = [(3.6, 5.0, "1")]  # on the straight way beyond the gap
+    route = routes.request(start, "1", goal, "1", blocked=person, untraversed=stretch)
+    pts = route.legs[0].waypoints
+    assert np.min(np.hypot(pts[:, 0] - 5.8, pts[:, 1] - 5.33)) < 0.2  # through the gap
+    assert np.min(np.hypot(pts[:, 0] - 3.6, pts[:, 1] - 5.0)) > 0.35  # round the person
