@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
+import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
@@ -85,8 +86,14 @@ class Fleet(Protocol):
         """Remember the scan points just ahead of the chair as obstacles for the route
         requests of this mission (a re-plan goes around them); how many were marked."""
 
+    def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
+        """Remember ``points`` (N, 2, map frame on ``floor``), a stretch of a leg the chair
+        was held on, for the route requests of this mission: a re-plan goes another way
+        where there is one; how many were marked."""
+
     def forget_blocking(self) -> None:
-        """Drop every point :meth:`mark_blocking` remembered (a re-plan they shut off)."""
+        """Drop every point :meth:`mark_blocking` and :meth:`mark_untraversed` remembered
+        (a re-plan they shut off)."""
 
     def lift_state(self, lift_id: str) -> LiftState | None:
         """The building's last LiftState of ``lift_id``."""

@@ -417,12 +417,15 @@ class BuildingBodies(Msg):
         _same_length("lift_door_openings", self.lift_door_openings, "lifts", n, "lift(s)")
 
 
-@message("route_request", version=2)
+@message("route_request", version=3)
 @dataclass
 class RouteRequest(Msg):
     """Ask the planner for a route from ``start`` to ``goal`` or to the named ``place``,
-    avoiding the doors and lifts named in ``avoid`` (ones that failed this mission) and the
-    points in ``blocked`` (what held the chair, marked by a recovery; map frame, floor)."""
+    avoiding the doors and lifts named in ``avoid`` (ones that failed this mission), the
+    points in ``blocked`` (what held the chair, marked by a recovery; map frame, floor)
+    and, where another way exists, the points in ``untraversed`` (v3: the stretch of a
+    leg the chair was held on, a gap it could not enter; dropped first when they shut
+    every way)."""
 
     start: Pose2D
     goal: Pose2D | None = None
@@ -430,6 +433,7 @@ class RouteRequest(Msg):
     avoid: list[str] = field(default_factory=list)
     blocked: list[Pose2D] = field(default_factory=list)
     stamp: float = num(*STAMP, default=0.0)  # the asker's clock: unavailable marks expire
+    untraversed: list[Pose2D] = field(default_factory=list)
 
 
 @message("checkpoint", version=3)

@@ -90,6 +90,7 @@ class FleetState:
         self.avoided: set[str] = set()
         self.lifts_reported: set[str] = set()  # lifts out of service reported this mission
         self.blocking: list[tuple[float, float, str]] = []  # marked by recoveries (map frame)
+        self.untraversed: list[tuple[float, float, str]] = []  # legs' stretches held on
         self.session = ""
         self._pose: PoseEstimate | None = None
         self._odom: Odometry | None = None
@@ -143,7 +144,7 @@ class FleetState:
     def new_mission(self, goal_id: str) -> None:
         """Forget the checkpoints avoided so far; lift requests now hold ``<robot>-<goal_id>``."""
         self.avoided.clear()
-        self.blocking.clear()
+        self.forget_blocking()
         self.lifts_reported.clear()
         self.session = f"{self.robot}-{goal_id}"
 
@@ -204,8 +205,14 @@ class FleetState:
         del self.blocking[:-400]
         return len(near)
 
+    def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
+        self.untraversed.extend((float(x), float(y), floor) for x, y in points)
+        del self.untraversed[:-400]
+        return len(points)
+
     def forget_blocking(self) -> None:
         self.blocking.clear()
+        self.untraversed.clear()
 
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         if self._scan is None or self._pose is None:
@@ -299,6 +306,7 @@ class FleetState:
             avoid=avoid,
             blocked=[Pose2D(x, y, 0.0, floor) for x, y, floor in self.blocking],
             stamp=self.now(),
+            untraversed=[Pose2D(x, y, 0.0, floor) for x, y, floor in self.untraversed],
         )
 
     def stop_path(self) -> Path:

@@ -57,6 +57,12 @@ from shared.messages import (
 
 NAME = "navigator"
 WAY_ON_M = 1.5  # how far along the route a recovery faces, or manoeuvres onto it
+# held while following a leg, a recovery marks the leg's stretch from UNTRAVERSED_FROM_M
+# ahead of the chair's pose point to UNTRAVERSED_REACH_M beyond its front (the reach of
+# the scan points it marks), a point every UNTRAVERSED_STEP_M: the gap it could not enter
+UNTRAVERSED_FROM_M = 0.5
+UNTRAVERSED_REACH_M = 1.0
+UNTRAVERSED_STEP_M = 0.1
 
 
 def _way_on_index(pts: np.ndarray, i: int) -> int:
@@ -64,6 +70,23 @@ def _way_on_index(pts: np.ndarray, i: int) -> int:
     from point ``i`` (the last point if they end sooner)."""
     seg = np.linalg.norm(np.diff(pts[i:], axis=0), axis=1)
     return min(i + int(np.searchsorted(np.cumsum(seg), WAY_ON_M)) + 1, len(pts) - 1)
+
+
+def stretch_ahead(
+    pts: np.ndarray, xy: tuple[float, float], from_m: float, to_m: float, step_m: float
+) -> np.ndarray:
+    """Points ``step_m`` apart along the polyline ``pts`` (N, 2), from ``from_m`` to
+    ``to_m`` beyond its point nearest ``xy`` (cut at its end; (0, 2) if nothing is left)."""
+    a, b = pts[:-1], pts[1:]
+    seg = b - a
+    length = np.hypot(seg[:, 0], seg[:, 1])
+    u = np.clip(((np.asarray(xy) - a) * seg).sum(axis=1) / np.maximum(length**2, 1e-12), 0, 1)
+    near = a + seg * u[:, None]
+    k = int(np.argmin(np.hypot(near[:, 0] - xy[0], near[:, 1] - xy[1])))
+    along = np.concatenate([[0.0], np.cumsum(length)])
+    s0 = along[k] + u[k] * length[k]
+    s = np.arange(s0 + from_m, min(s0 + to_m, along[-1]) + 1e-9, step_m)
+    return np.column_stack([np.interp(s, along, pts[:, 0]), np.interp(s, along, pts[:, 1])])
 
 
 class NavigatorOutput(Protocol):
@@ -383,6 +406,9 @@ class Navigator:
         self.recoveries += 1
         self.recoveries_in_all += 1
         marked = self.fleet.mark_blocking()
+        # the phase the hold came in (the failed tree's stop step has set its own since)
+        following = self.status.phase == Phase.FOLLOW
+        stretch = self._mark_untraversed(est) if following else 0
         self.log.warning(
             "held (%s)%s: recovery %d of %d", cause, where, self.recoveries, self.cfg.max_recoveries
         )
@@ -390,7 +416,8 @@ class Navigator:
             "recovery",
             f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s: "
             f"recovery {self.recoveries} of {self.cfg.max_recoveries}, "
-            f"{marked} blocking points marked",
+            f"{marked} blocking points marked"
+            + (f", {stretch} of the leg ahead marked untraversed" if stretch else ""),
         )
         self.recovering, self.driving = True, False
         self._grow(
@@ -424,6 +451,40 @@ class Navigator:
                     "recovery", f"held {away:.1f} m on from the last recoveries: count anew"
                 )
         self.recovery_place, self.recoveries = here, 0
+
+    def _mark_untraversed(self, est) -> int:
+        """Mark the stretch of the leg being followed just ahead of the held chair (campaign
+        b3003.m08: a gap it could not enter from the diagonal, on the map and so taken by
+        every re-plan); how many points were marked."""
+        nearest = self._nearest_leg(est)
+        if nearest is None:
+            return 0
+        pts, floor = nearest
+        stretch = stretch_ahead(
+            pts,
+            (est.pose.x, est.pose.y),
+            UNTRAVERSED_FROM_M,
+            self.entry.front_m + UNTRAVERSED_REACH_M,
+            UNTRAVERSED_STEP_M,
+        )
+        return self.fleet.mark_untraversed(est.pose.floor or floor, stretch) if len(stretch) else 0
+
+    def _nearest_leg(self, est) -> tuple[np.ndarray, str] | None:
+        """The waypoints (N >= 2) and floor of the route's leg nearest the chair on its
+        floor; None without a route or a pose."""
+        route = self.bb.route
+        if est is None or route is None:
+            return None
+        p = est.pose
+        best: tuple[float, np.ndarray, str] | None = None
+        for leg in route.legs:
+            pts = np.asarray(leg.waypoints, float)
+            if (p.floor and leg.floor not in ("", p.floor)) or len(pts) < 2:
+                continue
+            d = float(np.min(np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)))
+            if best is None or d < best[0]:
+                best = (d, pts, leg.floor)
+        return None if best is None else (best[1], best[2])
 
     def _after_recovery(self) -> None:
         self.recovering = False
@@ -472,26 +533,17 @@ class Navigator:
         pose, its heading): where the recovery's manoeuvre docks when no turn on the spot
         fits. None without a route or a pose."""
         est = self.fleet.pose()
-        route = self.bb.route
-        if est is None or route is None:
+        nearest = self._nearest_leg(est)
+        if nearest is None:
             return None
         p = est.pose
-        best: tuple[float, np.ndarray, int, str] | None = None
-        for leg in route.legs:
-            pts = np.asarray(leg.waypoints, float)
-            if (p.floor and leg.floor not in ("", p.floor)) or len(pts) < 2:
-                continue
-            d = np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)
-            i = int(np.argmin(d))
-            if best is None or d[i] < best[0]:
-                best = (float(d[i]), pts, i, leg.floor)
-        if best is None:
-            return None
-        _, pts, i, floor = best
+        pts, floor = nearest
+        i = int(np.argmin(np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)))
         j = max(_way_on_index(pts, i), 1)
         (ax, ay), (bx, by) = pts[j - 1], pts[j]
         heading = math.atan2(by - ay, bx - ax)
-        for cp in route.checkpoints:  # the leg's end at a door or a lift: its approach heading
+        # the leg's end at a door or a lift: its approach heading
+        for cp in self.bb.route.checkpoints:
             if math.hypot(cp.approach.x - bx, cp.approach.y - by) < 0.01:
                 heading = cp.approach.theta
         return p.floor or floor, (float(bx), float(by), heading)

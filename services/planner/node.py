@@ -96,6 +96,7 @@ def main(argv: list[str] | None = None) -> None:
                     req.place,
                     req.avoid,
                     [(b.x, b.y, b.floor) for b in req.blocked],
+                    untraversed=[(u.x, u.y, u.floor) for u in req.untraversed],
                 )
             except PlanError as exc:
                 svc.log.warning("route refused (%s): %s", exc.code, exc)

@@ -133,11 +133,13 @@ class RoutePlanner:
         avoid: list[str] = (),
         blocked: list[tuple[float, float, str]] = (),
         stamp: float | None = None,
+        untraversed: list[tuple[float, float, str]] = (),
     ) -> Route:
         """A route to ``goal`` on ``goal_floor`` or to the named ``place`` (one is needed),
-        treating the doors and lifts in ``avoid`` as unavailable for this request and the
-        points in ``blocked`` (x, y, floor) as obstacles where a way round them exists;
-        with a ``stamp``, marks older than ``unavailable_retry_s`` are dropped first."""
+        treating the doors and lifts in ``avoid`` as unavailable for this request, and the
+        points in ``blocked`` and ``untraversed`` (x, y, floor) as obstacles where a way
+        round them exists (``untraversed`` given up first); with a ``stamp``, marks older
+        than ``unavailable_retry_s`` are dropped first."""
         if stamp is not None:
             self.expire(stamp)
         if place:
@@ -146,24 +148,31 @@ class RoutePlanner:
         elif goal is None:
             raise errors.BadRequest("route request has neither goal nor place")
         saved = (set(self.blocked_doors), set(self.unavailable_lifts))
-        self._points = {}
-        for x, y, floor in blocked:
-            self._points.setdefault(self.planner.floor_name(floor), []).append((x, y))
+        # what held the chair may be a closed door on the only way (its procedure opens
+        # it), someone who moves on, or a gap the chair could not enter from where it came:
+        # the points are a hint, not a wall; each set that shuts every way is dropped
+        hints = [list(blocked) + list(untraversed), list(blocked), []]
+        hints = [h for i, h in enumerate(hints) if i == 0 or h != hints[i - 1]]
         try:
             for name in avoid:
                 self.set_door_blocked(name, True)
-            try:
-                return self.route(start, start_floor, goal, goal_floor)
-            except errors.NoPath:
-                if not self._points:
-                    raise
-                # what held the chair may be a closed door on the only way (its procedure
-                # opens it) or someone who moves on: the points are a hint, not a wall
-                self._points = {}
-                return self.route(start, start_floor, goal, goal_floor)
+            for points in hints[:-1]:
+                self._set_points(points)
+                try:
+                    return self.route(start, start_floor, goal, goal_floor)
+                except errors.NoPath:
+                    continue
+            self._set_points(hints[-1])
+            return self.route(start, start_floor, goal, goal_floor)
         finally:
             self.blocked_doors, self.unavailable_lifts = saved
             self._points = {}
+
+    def _set_points(self, points: list[tuple[float, float, str]]) -> None:
+        """This request's obstacles, per floor."""
+        self._points = {}
+        for x, y, floor in points:
+            self._points.setdefault(self.planner.floor_name(floor), []).append((x, y))
 
     def route(
         self,
