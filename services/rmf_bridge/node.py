@@ -24,20 +24,20 @@ import time
 import zenoh
 
 from services.rmf_bridge.bridge import Outgoing, RmfBridge
+from services.rmf_bridge.endpoints import NAME, PUBLISHES, ROS_PUBLISHES, ROS_SUBSCRIBES, SUBSCRIBES
 from services.rmf_bridge.errors import KINDS, BridgeError, UnknownName
 from services.rmf_bridge.ros_keys import (
-    DOOR_REQUESTS,
     DOOR_STATES,
-    LIFT_REQUESTS,
     LIFT_STATES,
+    NAMESPACE_DEPTH,
+    TOPICS,
+    beyond_secured,
     ros_key,
 )
 from shared.config import ConfigError, FleetConfig
 from shared.messages import Clock, DoorRequest, LiftRequest
 from shared.service import EXIT_CONFIG, Service
 from shared.site import load_site
-
-NAME = "rmf_bridge"
 
 
 def make_bridge(cfg: FleetConfig) -> RmfBridge:
@@ -81,16 +81,22 @@ def main(argv: list[str] | None = None) -> None:
                     names.kind,
                     ", ".join(names.unused),
                 )
+        if cfg.transport.security.dir and beyond_secured(section.key_format, section.namespace):
+            svc.log.warning(
+                "rmf_bridge.namespace %s: a secured router lets through namespaces of at most "
+                "%d levels; the building's keys will be dropped (docs/building-bridge.md)",
+                section.namespace,
+                NAMESPACE_DEPTH,
+            )
         ros = {
-            t: ros_key(t, section.key_format, section.namespace, section.domain_id)
-            for t in (DOOR_STATES, DOOR_REQUESTS, LIFT_STATES, LIFT_REQUESTS)
+            t: ros_key(t, section.key_format, section.namespace, section.domain_id) for t in TOPICS
         }
         # requests are few and each matters (an OPEN, an END_SESSION): block, never drop
         publishers = {
             t: bus.session.declare_publisher(
                 svc.declare("publishes", ros[t]), congestion_control=zenoh.CongestionControl.BLOCK
             )
-            for t in (DOOR_REQUESTS, LIFT_REQUESTS)
+            for t in ROS_PUBLISHES
         }
 
         def send(out: Outgoing) -> None:
@@ -137,25 +143,26 @@ def main(argv: list[str] | None = None) -> None:
 
             return on_state
 
-        on_door_request = requests(bridge.door_request, "door", "door_name")
-        on_lift_request = requests(bridge.lift_request, "lift", "lift_name")
-        on_door_state = states(bridge.door_state, "door", "door_name")
-        on_lift_state = states(bridge.lift_state, "lift", "lift_name")
+        on_request = {
+            "door_request": (DoorRequest, requests(bridge.door_request, "door", "door_name")),
+            "lift_request": (LiftRequest, requests(bridge.lift_request, "lift", "lift_name")),
+        }
+        on_state = {
+            DOOR_STATES: states(bridge.door_state, "door", "door_name"),
+            LIFT_STATES: states(bridge.lift_state, "lift", "lift_name"),
+        }
 
         def check_leases(clock: Clock) -> None:
             for out in bridge.expire(clock.stamp):
                 send(out)
 
-        bus.subscribe(
-            svc.declare("subscribes", keys.key("door_request")), DoorRequest, on_door_request
-        )
-        bus.subscribe(
-            svc.declare("subscribes", keys.key("lift_request")), LiftRequest, on_lift_request
-        )
-        bus.subscribe_raw(svc.declare("subscribes", ros[DOOR_STATES]), on_door_state)
-        bus.subscribe_raw(svc.declare("subscribes", ros[LIFT_STATES]), on_lift_state)
-        svc.declare("publishes", keys.key("door_state"))
-        svc.declare("publishes", keys.key("lift_state"))
+        # what it declares is what a secured router lets it do (endpoints.py)
+        for name in SUBSCRIBES:
+            bus.subscribe(svc.declare("subscribes", keys.key(name)), *on_request[name])
+        for t in ROS_SUBSCRIBES:
+            bus.subscribe_raw(svc.declare("subscribes", ros[t]), on_state[t])
+        for name in PUBLISHES:
+            svc.declare("publishes", keys.key(name))
         svc.log.info(
             "%d doors, %d lifts of site %s; building keys: %s",
             len(bridge.doors),

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from services.rmf_bridge import cdr
 
 KEY_FORMATS = ("ros2dds", "rmw_zenoh")
+# the deepest zenoh-bridge-ros2dds namespace a secured router lets through (key_patterns)
+NAMESPACE_DEPTH = 2
 
 
 @dataclass(frozen=True)
@@ -51,11 +53,35 @@ def ros_key(
     """The Zenoh key of ``topic`` in a building whose topics carry ``namespace`` (a ROS
     namespace, with or without its leading ``/``; empty: none); ValueError naming an
     unknown ``key_format``."""
-    name = "/".join(p for p in (namespace.strip("/"), topic.name) if p)
+    return _key(topic, key_format, namespace.strip("/"), str(domain_id))
+
+
+def key_patterns(topic: RosTopic) -> tuple[str, ...]:
+    """The key expressions of ``topic`` in any namespace (zenoh-bridge-ros2dds: at most
+    :data:`NAMESPACE_DEPTH` levels) and any domain, in both key formats.
+
+    For a secured router's rules (wheelnav/security/acl.py), made from the credentials
+    folder alone, without the fleet config that names the building's namespace and domain.
+    The depth bound keeps them off wheelnav's own keys: ``**/door_states`` would also match
+    ``wheelnav/chair1/events/door_states``, a service's events forged.
+    """
+    ros2dds = [_key(topic, "ros2dds", "/".join(["*"] * n), "") for n in range(NAMESPACE_DEPTH + 1)]
+    return (*ros2dds, _key(topic, "rmw_zenoh", "**", "*"))
+
+
+def beyond_secured(key_format: str, namespace: str) -> bool:
+    """Whether :func:`key_patterns` miss the keys of ``namespace``, so that a secured router
+    drops them: a zenoh-bridge-ros2dds namespace deeper than :data:`NAMESPACE_DEPTH`."""
+    depth = len([p for p in namespace.split("/") if p])
+    return key_format == "ros2dds" and depth > NAMESPACE_DEPTH
+
+
+def _key(topic: RosTopic, key_format: str, namespace: str, domain: str) -> str:
+    name = "/".join(p for p in (namespace, topic.name) if p)
     if key_format == "ros2dds":
         return name
     if key_format == "rmw_zenoh":
         typename = topic.typename
         type_hash = "*" if topic.direction == "in" else cdr.type_hash(typename)
-        return f"{domain_id}/{name}/{cdr.dds_type_name(typename)}/{type_hash}"
+        return f"{domain}/{name}/{cdr.dds_type_name(typename)}/{type_hash}"
     raise ValueError(f"key format {key_format!r}: use one of {', '.join(KEY_FORMATS)}")

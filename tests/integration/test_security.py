@@ -21,9 +21,20 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from services.rmf_bridge.ros_keys import DOOR_REQUESTS, DOOR_STATES, ros_key
 from shared.codec import encode
 from shared.config import SecurityConfig, TransportConfig
-from shared.messages import Msg, NavGoal, Pose2D, RouteReply, RouteRequest, Twist
+from shared.messages import (
+    DoorMode,
+    DoorRequest,
+    DoorState,
+    Msg,
+    NavGoal,
+    Pose2D,
+    RouteReply,
+    RouteRequest,
+    Twist,
+)
 from shared.topics import Keys
 from shared.transport import Bus, open_session, zenoh_config
 from tests.conftest import PYTHON, ROOT
@@ -32,6 +43,7 @@ from wheelnav.mission.run import free_port
 from wheelnav.security import store
 
 KEYS = Keys("chair1")
+RMF_HOST = "building-rmf"  # the Open-RMF building's Zenoh bridge, linked as a host
 DEADLINE_S = 60.0  # for what must happen; the machine may be loaded
 
 
@@ -60,6 +72,7 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Fleet]:
     root = tmp_path_factory.mktemp("secured") / "chair1"
     store.init(root, "chair1", [], ["operator"], ["viewer"])
     store.add(root, "probe", "service")  # tests/integration/probe_service.py
+    store.add(root, RMF_HOST, "host", ("rmf",))
     endpoint = f"tls/127.0.0.1:{free_port()}"
     access = store.router_access_control(store.load(root), "chair1")
     router = open_router(endpoint, str(root), access)
@@ -212,6 +225,41 @@ def test_a_service_holds_its_own_liveliness_token_nobody_else_can(fleet: Fleet) 
     while spoofed not in alive and time.monotonic() < deadline:
         alive = fleet.router.alive(KEYS.key("alive"), 1.0)
     assert spoofed in alive
+
+
+def test_the_building_bridge_speaks_to_the_open_rmf_side_and_sends_no_velocity(
+    fleet: Fleet,
+) -> None:
+    # the building's zenoh-bridge-ros2dds: a router linked to the chair's as its host identity
+    access = store.router_access_control(store.load(fleet.root), "chair1", RMF_HOST)
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    building = open_router(endpoint, str(fleet.root), access, [fleet.endpoint], RMF_HOST)
+    bridge, viewer = fleet.client("rmf_bridge"), fleet.client("viewer")
+    try:
+        request = ros_key(DOOR_REQUESTS, namespace="/building1")
+        bad, good = seen(
+            building,
+            request,
+            (viewer, DoorRequest(0.0, "viewer", "d1", DoorMode.OPEN)),
+            (bridge, DoorRequest(0.0, "chair1", "d1", DoorMode.OPEN)),
+        )
+        assert good >= 3 and bad == 0
+        bad, good = seen(
+            bridge,
+            ros_key(DOOR_STATES, namespace="/building1"),
+            (viewer, DoorState(0.0, "d1", DoorMode.CLOSED)),
+            (building, DoorState(0.0, "d1", DoorMode.OPEN)),
+        )
+        assert good >= 3 and bad == 0
+        bad, good = seen(
+            fleet.client("driver"),
+            KEYS.cmd_vel,
+            (bridge, Twist(0.0, 0.7, 0.0)),
+            (fleet.client("controller"), Twist(0.0, 0.4, 0.0)),
+        )
+        assert good >= 3 and bad == 0
+    finally:
+        building.close()
 
 
 def _probe(endpoint: str, folder: Path) -> subprocess.Popen:

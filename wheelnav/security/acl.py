@@ -20,21 +20,32 @@ clients and trusts the chair's router, which it reaches (:func:`access_control` 
 A field ``{service}`` or ``{source}`` of the key is the identity's own name where it
 offers (publishes, holds a token, answers queries): a service publishes its diagnostics
 and holds its liveliness token on its own key only.
+
+The building bridge to Open-RMF (``rmf_bridge``) has rights the table cannot give
+(:func:`open_rmf`): it stands in for the building emulator on door and lift states, and it
+speaks Open-RMF's topics, outside ``wheelnav/**``. The building's own side of those topics
+(its zenoh-bridge-ros2dds or rmw_zenohd) links to the chair's router as a host carrying
+:data:`RMF`.
 """
 
 from __future__ import annotations
 
 import re
 import string
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
+from services.rmf_bridge import endpoints as bridge
+from services.rmf_bridge.ros_keys import TOPICS as ROS_TOPICS
+from services.rmf_bridge.ros_keys import RosTopic, key_patterns
 from shared.credentials import ROUTER
 from shared.topics import ROOT, Keys, Topic
 
 SERVICE, OPERATOR, VIEWER, HOST = "service", "operator", "viewer", "host"
 PERSON_ROLES = (OPERATOR, VIEWER)
 GROUPS = {"@operators": OPERATOR, "@viewers": VIEWER, "@services": SERVICE}
+# a host's word for the Open-RMF building side it carries: no identity, rights of its own
+RMF = "rmf"
 
 # Who the words of the table's publisher / queryable columns mean: service names, or a
 # group: "@operators" (people allowed to command the chair), "@services" (every service
@@ -58,12 +69,14 @@ PHRASES: dict[str, tuple[str, ...]] = {
 }
 
 # action -> (flow, Zenoh message kinds) it needs, as the router sees them: a publisher's
-# puts come in; a reader's subscriptions come in, samples and tokens go out; a querier's
-# query comes in, replies go out; a queryable the reverse. Readers also hear of the others'
-# subscriptions: a client that hears of none stops sending puts, and a refused client's
-# puts should reach the router and be refused there, not rest on the client's goodwill.
+# puts come in, and it hears of the subscribers (a client or a router that hears of none
+# sends nothing; on wheelnav/** reading grants this too, on Open-RMF's keys only this); a
+# reader's subscriptions come in, samples and tokens go out; a querier's query comes in,
+# replies go out; a queryable the reverse. Readers also hear of the others' subscriptions:
+# a refused client's puts should reach the router and be refused there, not rest on the
+# client's goodwill.
 ACTIONS: dict[str, tuple[tuple[str, tuple[str, ...]], ...]] = {
-    "publish": (("ingress", ("put",)),),
+    "publish": (("ingress", ("put",)), ("egress", ("declare_subscriber",))),
     "token": (("ingress", ("liveliness_token",)),),
     "query": (("ingress", ("query",)), ("egress", ("reply",))),
     "serve": (("ingress", ("declare_queryable", "reply")), ("egress", ("query",))),
@@ -135,8 +148,10 @@ def topic_key(keys: Keys, topic: Topic, owner: str | None) -> str:
 
 
 def grants(topics: Iterable[Topic], identities: Iterable[Identity], robot: str) -> Grants:
-    """identity -> action (:data:`ACTIONS`) -> sorted keys, for one robot's router; a
-    host's are those of the identities it carries, and ``route`` for what they query."""
+    """identity -> action (:data:`ACTIONS`) -> sorted keys, for one robot's router; the
+    building bridge's beyond the table (:func:`open_rmf`); a host's are those of the
+    identities it carries (and the Open-RMF side's, :data:`RMF`), and ``route`` for what
+    they query."""
     ids = list(identities)
     keys = Keys(robot)
     out: Grants = {i.name: {"read": [f"{ROOT}/**"]} for i in ids}
@@ -145,6 +160,11 @@ def grants(topics: Iterable[Topic], identities: Iterable[Identity], robot: str) 
         held = out[name].setdefault(action, [])
         if key not in held:
             held.append(key)
+
+    def allow_all(name: str, actions: Mapping[str, list[str]]) -> None:
+        for action, keys_ in actions.items():
+            for key in keys_:
+                allow(name, action, key)
 
     for topic in topics:
         if topic.kind == "query":
@@ -156,22 +176,57 @@ def grants(topics: Iterable[Topic], identities: Iterable[Identity], robot: str) 
             action = "token" if topic.kind == "liveliness" else "publish"
             for name in who(topic, topic.publisher, ids):
                 allow(name, action, topic_key(keys, topic, name))
+    rmf = open_rmf(keys)
+    if any(i.name == bridge.NAME and i.role == SERVICE for i in ids):
+        allow_all(bridge.NAME, rmf[bridge.NAME])
     for host in (i for i in ids if i.role == HOST):
         for name in carried(host, ids):
-            for action, keys_ in out[name].items():
-                for key in keys_:
-                    allow(host.name, action, key)
+            allow_all(host.name, out[name])
+        if RMF in host.carries:
+            allow_all(host.name, rmf[RMF])
         for key in out[host.name].get("query", []):
             allow(host.name, "route", key)
     return {name: {a: sorted(k) for a, k in acts.items()} for name, acts in out.items()}
 
 
+def open_rmf(keys: Keys) -> Grants:
+    """What the building bridge and the Open-RMF building side (:data:`RMF`) may do beyond
+    the topic table: the bridge publishes door and lift states in the emulator's stead and
+    the chair's requests on Open-RMF's keys, and reads the building's states there; the
+    building side publishes those states and reads those requests (services/rmf_bridge/
+    endpoints.py). Open-RMF's keys in both key formats, in any domain and namespace (up to
+    two levels for zenoh-bridge-ros2dds: ros_keys.key_patterns): the rules are made from
+    the credentials folder, without the fleet config that names them."""
+    states = _patterns(bridge.ROS_SUBSCRIBES)
+    requests = _patterns(bridge.ROS_PUBLISHES)
+    ours = [keys.key(name) for name in bridge.PUBLISHES]
+    return {
+        bridge.NAME: {"publish": [*ours, *requests], "read": states},
+        RMF: {"publish": states, "read": requests},
+    }
+
+
+def upstream_keys(host: Identity) -> list[str]:
+    """Where ``host``'s router trusts the chair's router it links to: ``wheelnav/**``, and
+    Open-RMF's keys when it carries the building side (the chair's requests come in over
+    that link, the building's states go out)."""
+    rmf = _patterns(ROS_TOPICS) if RMF in host.carries else []
+    return [f"{ROOT}/**", *rmf]
+
+
+def _patterns(topics: Iterable[RosTopic]) -> list[str]:
+    return [key for t in topics for key in key_patterns(t)]
+
+
 def carried(host: Identity, identities: Iterable[Identity]) -> list[str]:
     """The identities whose traffic ``host``'s router carries: its words, each an identity
-    name or a group of :data:`GROUPS`; ValueError naming a word that is neither."""
+    name or a group of :data:`GROUPS` (:data:`RMF`, the Open-RMF side, is none: skipped);
+    ValueError naming a word that is neither."""
     ids = [i for i in identities if i.role != HOST]
     out: list[str] = []
     for word in host.carries:
+        if word == RMF:
+            continue
         if word in GROUPS:
             names = [i.name for i in ids if i.role == GROUPS[word]]
         elif word in {i.name for i in ids}:
@@ -179,20 +234,22 @@ def carried(host: Identity, identities: Iterable[Identity]) -> list[str]:
         else:
             raise ValueError(
                 f"host {host.name!r} carries {word!r}: neither an identity nor one of "
-                f"{', '.join(GROUPS)}"
+                f"{', '.join([*GROUPS, RMF])}"
             )
         out += [n for n in names if n not in out]
     return out
 
 
-def access_control(granted: Mapping[str, Mapping[str, list[str]]], upstream: bool = False) -> dict:
+def access_control(
+    granted: Mapping[str, Mapping[str, list[str]]], upstream: Sequence[str] = ()
+) -> dict:
     """Zenoh ``access_control`` config for ``granted``: deny by default; per identity a
     subject (certificate common name and username, both its name) and a policy.
 
     ``upstream``: the config of a host's router, which links to the chair's router and
-    lets it do anything on ``wheelnav/**`` (it is the chair's, and enforces the rules of
-    its own clients). That router is known by its certificate's common name alone: the
-    side that accepts a link does not give a username.
+    lets it do anything on these key expressions (:func:`upstream_keys`: it is the
+    chair's, and enforces the rules of its own clients). That router is known by its
+    certificate's common name alone: the side that accepts a link gives no username.
     """
     rules: list[dict] = []
     policies: list[dict] = []
@@ -200,7 +257,7 @@ def access_control(granted: Mapping[str, Mapping[str, list[str]]], upstream: boo
     if upstream:
         kinds = sorted({m for flows in ACTIONS.values() for _, ms in flows for m in ms})
         rule = {"id": UPSTREAM, "permission": "allow", "flows": ["ingress", "egress"]}
-        rules.append({**rule, "messages": kinds, "key_exprs": [f"{ROOT}/**"]})
+        rules.append({**rule, "messages": kinds, "key_exprs": list(upstream)})
         subjects.append({"id": UPSTREAM, "cert_common_names": [ROUTER]})
         policies.append({"id": UPSTREAM, "rules": [UPSTREAM], "subjects": [UPSTREAM]})
     for name, actions in granted.items():

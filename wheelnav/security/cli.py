@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from shared.topics import TOPICS
+from shared.topics import ROOT, TOPICS
 from wheelnav.security import store
 from wheelnav.security.acl import ACTIONS, grants
+
+EVERYONE_READS = f"{ROOT}/**"
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -55,7 +57,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         metavar="WHO",
         default="",
         help="for a host: whose traffic its router carries, comma-separated identity names "
-        "or @operators, @viewers, @services (e.g. building; @operators,@viewers for a laptop)",
+        "or @operators, @viewers, @services (e.g. building; @operators,@viewers for a laptop), "
+        "or rmf: the Open-RMF building side (its zenoh-bridge-ros2dds or rmw_zenohd; "
+        "docs/building-bridge.md)",
     )
     add.set_defaults(run=run_add)
     show = ssub.add_parser("show", help="what each identity may do (the router's rules)")
@@ -115,11 +119,12 @@ def run_show(args: argparse.Namespace) -> int:
         return 2
     robot = args.robot or manifest.robot
     granted = grants(TOPICS, manifest.identities, robot)
-    print(f"robot {robot}: default deny; every identity may read wheelnav/**")
+    print(f"robot {robot}: default deny; every identity may read {EVERYONE_READS}")
     for ident in manifest.identities:
         carries = f", carries {', '.join(ident.carries)}" if ident.carries else ""
         print(f"{ident.name} ({ident.role}{carries})")
         for action in ACTIONS:
-            if action != "read" and granted[ident.name].get(action):
-                print(f"  {action:8s} {', '.join(granted[ident.name][action])}")
+            keys = [k for k in granted[ident.name].get(action, []) if k != EVERYONE_READS]
+            if keys:  # beyond what everyone may: the building bridge reads Open-RMF's keys
+                print(f"  {action:8s} {', '.join(keys)}")
     return 0

@@ -40,12 +40,14 @@ from wheelnav.security.acl import (
     HOST,
     OPERATOR,
     PERSON_ROLES,
+    RMF,
     SERVICE,
     VIEWER,
     Identity,
     access_control,
     carried,
     grants,
+    upstream_keys,
 )
 from wheelnav.security.pki import Issued, issue, new_ca
 
@@ -57,7 +59,7 @@ ZENOH_FILE = "zenoh.json5"
 # lockstep ticks and sends the scenario's goal)
 SERVICE_NAMES = (*(s.name for s in SERVICES), "viz", "mission")
 DEFAULT_HOSTS = ("localhost", "127.0.0.1", "::1")
-RESERVED = (CA_DIR, ROUTER)
+RESERVED = (CA_DIR, ROUTER, RMF)  # RMF: a host's word for the Open-RMF building side
 ROLES = (SERVICE, *PERSON_ROLES, HOST)
 
 
@@ -121,7 +123,8 @@ def router_access_control(manifest: Manifest, robot: str, identity: str = ROUTER
             f"{identity!r} is not a host of this credentials folder (make one with `wheelnav "
             f"security add DIR {identity} --role host --carries WHO`)"
         )
-    return access_control({n: granted[n] for n in carried(host, manifest.identities)}, True)
+    clients = {n: granted[n] for n in carried(host, manifest.identities)}
+    return access_control(clients, upstream_keys(host))
 
 
 def check_identity(name: str, role: str, taken: set[str]) -> str:
@@ -131,7 +134,7 @@ def check_identity(name: str, role: str, taken: set[str]) -> str:
     if role not in ROLES:
         raise ValueError(f"role {role!r}: use {', '.join(ROLES)}")
     if name in RESERVED or (role != SERVICE and name in SERVICE_NAMES):
-        raise ValueError(f"{name!r} is a service's or the router's name; choose another")
+        raise ValueError(f"{name!r} is a service's or a reserved name; choose another")
     if name in taken:
         raise ValueError(f"{name!r} already has credentials")
     return name
@@ -177,7 +180,8 @@ def init(
 def add(root: str | Path, name: str, role: str, carries: tuple[str, ...] = ()) -> list[Written]:
     """Credentials for one more operator, viewer or service (one the fleet gained since
     `init`), or a host whose router ``carries`` the traffic of identities (names, or
-    ``@operators``, ``@viewers``, ``@services``); the routers know them once restarted."""
+    ``@operators``, ``@viewers``, ``@services``) and of the Open-RMF building side
+    (``rmf``); the routers know them once restarted."""
     root = Path(root)
     manifest = load(root)
     check_identity(name, role, {i.name for i in manifest.identities})
@@ -212,8 +216,9 @@ def add(root: str | Path, name: str, role: str, carries: tuple[str, ...] = ()) -
 
 def _describe(ident: Identity, manifest: Manifest | None = None) -> str:
     if ident.role == HOST and manifest is not None:
-        names = ", ".join(carried(ident, manifest.identities))
-        return f"host: its router links to the chair's, for {names}"
+        names = carried(ident, manifest.identities)
+        names += ["the Open-RMF building side"] if RMF in ident.carries else []
+        return f"host: its router links to the chair's, for {', '.join(names)}"
     return {
         SERVICE: "service",
         OPERATOR: "operator: may send goals, cancels, resumes, emergency stops",

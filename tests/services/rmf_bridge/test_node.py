@@ -1,7 +1,8 @@
 """The bridge's node over a real Zenoh session on loopback: a CDR DoorState on the
 building's key comes out as wheelnav's DoorState, a wheelnav DoorRequest goes out as a CDR
 DoorRequest for the chair, a malformed payload is counted and the bridge goes on, and what
-the chair still holds is let go when the bridge stops. Its config errors name the key."""
+the chair still holds is let go when the bridge stops; every key it declares is one a
+secured router lets it use. Its config errors name the key."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+import zenoh
 
 from services.rmf_bridge import cdr
 from services.rmf_bridge.node import make_bridge
@@ -37,8 +39,10 @@ from shared.messages import (
     LiftRequestType,
     LiftState,
 )
+from shared.topics import TOPICS as WHEELNAV_TOPICS
 from shared.topics import Keys
 from tests.conftest import ROOT
+from wheelnav.security.acl import SERVICE, Identity, grants
 
 WAIT_S = 60.0  # for any event: generous, the machine may be loaded
 SITE = "sites/two_floors"  # doors d1_lab_1 (powered), ...; lifts lift_a, lift_b
@@ -80,6 +84,23 @@ def building_keys(key_format: str) -> dict[RosTopic, str]:
         t: ros_key(t, key_format, f"/{NAMESPACE}", 3).replace("*", cdr.type_hash(t.typename))
         for t in TOPICS
     }
+
+
+def declared(log: str) -> dict[str, list[str]]:
+    """The keys the node said it declares (``publishes KEY``, ``subscribes KEY``: its
+    Service.declare lines), by what it does with them."""
+    out: dict[str, list[str]] = {"publishes": [], "subscribes": []}
+    for line in log.splitlines():
+        what, _, key = line.partition(": ")[2].partition(" ")
+        if what in out:
+            out[what].append(key)
+    return out
+
+
+def secured_allows(action: str, key: str) -> bool:
+    """Whether a secured router's rules let the ``rmf_bridge`` identity ``action`` ``key``."""
+    rules = grants(WHEELNAV_TOPICS, [Identity("rmf_bridge", SERVICE)], "chair1")["rmf_bridge"]
+    return any(zenoh.KeyExpr(k).includes(zenoh.KeyExpr(key)) for k in rules[action])
 
 
 @pytest.mark.parametrize("key_format", ["ros2dds", "rmw_zenoh"])
@@ -160,6 +181,11 @@ def test_the_node_bridges_both_ways_and_survives_bad_input(router, key_format: s
     assert "(1 unknown so far): door 'Door_L9_99' of the building" in err
     assert "2 states in, 2 requests out, 0 of other chairs, 0 leases ended" in err
     assert "dropped: 1 malformed, 0 bad_field, 1 unknown" in err
+    keys = declared(err)
+    assert len(keys["publishes"]) == len(keys["subscribes"]) == 4, err
+    assert building[DOOR_REQUESTS] in keys["publishes"]
+    assert [k for k in keys["publishes"] if not secured_allows("publish", k)] == []
+    assert [k for k in keys["subscribes"] if not secured_allows("read", k)] == []
 
 
 @pytest.mark.parametrize(

@@ -1,13 +1,19 @@
-"""The router's rules derived from the topic table: who may publish, query, serve, hold."""
+"""The router's rules derived from the topic table: who may publish, query, serve, hold;
+and the building bridge's to Open-RMF, on wheelnav's keys and the building's."""
 
 from __future__ import annotations
 
 import pytest
+import zenoh
 
-from shared.topics import TOPICS, Topic
+from services.rmf_bridge import endpoints
+from services.rmf_bridge.ros_keys import KEY_FORMATS, RosTopic, key_patterns, ros_key
+from services.rmf_bridge.ros_keys import TOPICS as ROS_TOPICS
+from shared.topics import TOPICS, Keys, Topic
 from wheelnav.security.acl import (
     HOST,
     OPERATOR,
+    RMF,
     SERVICE,
     VIEWER,
     Identity,
@@ -15,6 +21,7 @@ from wheelnav.security.acl import (
     carried,
     grants,
     phrases,
+    upstream_keys,
 )
 from wheelnav.security.store import SERVICE_NAMES
 
@@ -56,7 +63,9 @@ def test_only_operators_and_the_mission_runner_send_goals_and_cancels() -> None:
 
 def test_a_viewer_only_reads_and_everyone_reads_everything() -> None:
     assert G["bob"] == {"read": ["wheelnav/**"]}
-    assert all(G[n]["read"] == ["wheelnav/**"] for n in G)
+    assert all("wheelnav/**" in G[n]["read"] for n in G)
+    # beyond: the building bridge reads the building's states, outside wheelnav/**
+    assert [n for n in G if G[n]["read"] != ["wheelnav/**"]] == ["rmf_bridge"]
 
 
 def test_a_service_offers_diagnostics_events_and_its_token_on_its_own_key_only() -> None:
@@ -112,7 +121,9 @@ def test_the_zenoh_config_denies_by_default_and_binds_names_to_certificates() ->
         assert set(policy["rules"]) <= set(rule_ids) and policy["subjects"] == [policy["id"]]
     cmd_rules = [r for r in acl["rules"] if "wheelnav/chair1/cmd_vel" in r["key_exprs"]]
     assert [(r["id"], r["flows"], r["messages"]) for r in cmd_rules] == [
-        ("controller/publish/ingress", ["ingress"], ["put"])
+        ("controller/publish/ingress", ["ingress"], ["put"]),
+        # a publisher hears of the subscribers: with none, nothing is sent
+        ("controller/publish/egress", ["egress"], ["declare_subscriber"]),
     ]
 
 
@@ -150,10 +161,106 @@ def test_a_host_carrying_a_word_that_names_nobody_is_refused() -> None:
 
 
 def test_a_hosts_router_trusts_the_chairs_router_known_by_its_certificate() -> None:
-    acl = access_control({"alice": G["alice"]}, upstream=True)
+    acl = access_control({"alice": G["alice"]}, upstream=["wheelnav/**"])
     (up,) = [s for s in acl["subjects"] if s["id"] == "upstream"]
     assert up == {"id": "upstream", "cert_common_names": ["router"]}  # no username: it accepts
     (rule,) = [r for r in acl["rules"] if r["id"] == "upstream"]
     assert rule["key_exprs"] == ["wheelnav/**"] and set(rule["flows"]) == {"ingress", "egress"}
     assert {"put", "query", "reply", "declare_queryable"} <= set(rule["messages"])
     assert "upstream" not in str(access_control({"alice": G["alice"]}))
+
+
+RMF_HOSTS = [*IDS, Identity("building-rmf", HOST, (RMF,))]
+R = grants(TOPICS, RMF_HOSTS, "chair1")
+KEYS = Keys("chair1")
+
+
+def allows(name: str, action: str, key: str) -> bool:
+    """Whether ``name``'s rules of ``action`` cover ``key`` as Zenoh matches them (a rule's
+    key expression may be a pattern, and so may ``key``: a subscription's)."""
+    key_expr = zenoh.KeyExpr(key)
+    return any(zenoh.KeyExpr(k).includes(key_expr) for k in R[name].get(action, []))
+
+
+def building_keys(topics: tuple[RosTopic, ...]) -> list[str]:
+    """Every key the bridge's node uses for ``topics`` (services/rmf_bridge/ros_keys.py), in
+    both key formats, without and with a namespace, in two ROS domains."""
+    return [
+        ros_key(t, key_format, namespace, domain_id)
+        for t in topics
+        for key_format in KEY_FORMATS
+        for namespace in ("", "/building1", "/site/b2")
+        for domain_id in (0, 42)
+    ]
+
+
+def test_the_building_bridge_may_use_every_key_its_node_declares() -> None:
+    for name in endpoints.PUBLISHES:  # the building's door and lift states, on wheelnav's keys
+        assert allows("rmf_bridge", "publish", KEYS.key(name))
+        assert allows("rmf_bridge", "publish", KEYS.key(name, **{name.split("_")[0]: "d1"}))
+    for name in endpoints.SUBSCRIBES:  # the chair's door and lift requests
+        assert allows("rmf_bridge", "read", KEYS.key(name))
+    for key in building_keys(endpoints.ROS_PUBLISHES):  # the requests out to the building
+        assert allows("rmf_bridge", "publish", key), key
+    for key in building_keys(endpoints.ROS_SUBSCRIBES):  # the building's states in
+        assert allows("rmf_bridge", "read", key), key
+    assert allows("rmf_bridge", "publish", KEYS.key("diagnostics", service="rmf_bridge"))
+    assert allows("rmf_bridge", "token", KEYS.key("alive", service="rmf_bridge"))
+
+
+@pytest.mark.parametrize(
+    ("key", "who_may"),
+    [
+        (KEYS.cmd_vel, "controller"),
+        (KEYS.nav_goal, "alice"),
+        (KEYS.estop, "alice"),
+        (KEYS.key("door_request", door="d1"), "navigator"),
+        (KEYS.key("diagnostics", service="navigator"), "navigator"),
+        (KEYS.ack, "building"),
+        (KEYS.key("building_bodies"), "building"),
+    ],
+)
+def test_the_building_bridge_may_not_publish_what_others_may(key: str, who_may: str) -> None:
+    assert allows(who_may, "publish", key)
+    assert not allows("rmf_bridge", "publish", key)
+
+
+def test_the_building_bridge_publishes_nothing_more_on_wheelnavs_keys() -> None:
+    # a rule reaching any key of the table (pattern against pattern), beyond its own
+    mine = {*endpoints.PUBLISHES, "diagnostics", "events"}
+    bridge = [zenoh.KeyExpr(k) for k in R["rmf_bridge"]["publish"]]
+    reached = {t.name for t in TOPICS if any(k.intersects(KEYS.key(t.name)) for k in bridge)}
+    assert reached == mine
+    assert set(R["rmf_bridge"]) == {"read", "publish", "token"}  # no query, no serve
+
+
+def test_the_open_rmf_side_publishes_states_and_reads_requests_only() -> None:
+    for key in building_keys(endpoints.ROS_SUBSCRIBES):
+        assert allows("building-rmf", "publish", key) and not allows("rmf_bridge", "publish", key)
+    for key in building_keys(endpoints.ROS_PUBLISHES):
+        assert allows("building-rmf", "read", key)
+        assert allows("rmf_bridge", "publish", key) and not allows("building-rmf", "publish", key)
+    for name, who_may in (("door_state", "building"), ("cmd_vel", "controller")):
+        assert allows(who_may, "publish", KEYS.key(name))
+        assert not allows("building-rmf", "publish", KEYS.key(name))
+    assert carried(RMF_HOSTS[-1], RMF_HOSTS) == []  # no identity: no password on its router
+
+
+def test_no_open_rmf_rule_reaches_a_key_of_the_topic_table() -> None:
+    # `**/door_states` would let the building forge `wheelnav/chair1/events/door_states`
+    rmf = {k for t in ROS_TOPICS for k in key_patterns(t)}
+    granted = {k for n in ("rmf_bridge", "building-rmf") for a in R[n].values() for k in a}
+    assert {k for k in granted if not k.startswith("wheelnav/")} == rmf
+    for key in rmf:
+        reached = [t.name for t in TOPICS if zenoh.KeyExpr(key).intersects(KEYS.key(t.name))]
+        assert reached == [], (key, reached)
+
+
+def test_a_host_carrying_the_open_rmf_side_trusts_the_chairs_router_on_its_keys() -> None:
+    # over its link come the chair's requests, and go the building's states
+    trusted = upstream_keys(RMF_HOSTS[-1])
+    assert trusted[0] == "wheelnav/**"
+    assert {*R["building-rmf"]["publish"], *R["building-rmf"]["read"]} <= set(trusted)
+    assert upstream_keys(Identity("laptop", HOST, ("@operators",))) == ["wheelnav/**"]
+    with pytest.raises(ValueError, match="one of @operators, @viewers, @services, rmf"):
+        carried(Identity("building-rmf", HOST, ("rmff",)), IDS)

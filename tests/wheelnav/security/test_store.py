@@ -180,3 +180,29 @@ def test_only_a_host_of_the_folder_has_a_hosts_rules(tmp_path: Path) -> None:
     assert "building-host" in {s["id"] for s in chair["subjects"]}
     with pytest.raises(ValueError, match="'alice' is not a host"):
         store.router_access_control(manifest, "chair1", "alice")
+
+
+def test_the_open_rmf_building_side_links_as_a_host_carrying_rmf(tmp_path: Path, capsys) -> None:
+    root = tmp_path / "chair"
+    store.init(root, "chair1", ["10.77.3.1"], ["alice"], [])
+    argv = ["security", "add", str(root), "building-rmf", "--role", "host", "--carries", "rmf"]
+    assert main(argv) == 0
+    assert "for the Open-RMF building side" in capsys.readouterr().out
+    folder = root / "building-rmf"
+    assert (folder / "passwords.txt").read_text() == ""  # it carries no identity of ours
+    conf = json.loads((folder / "zenoh.json5").read_text().split("\n", 1)[1])
+    assert conf["connect"]["endpoints"] == ["tls/10.77.3.1:7447"]
+    acl = conf["access_control"]
+    assert {s["id"] for s in acl["subjects"]} == {"upstream"}
+    (up,) = [r for r in acl["rules"] if r["id"] == "upstream"]
+    assert {"wheelnav/**", "adapter_door_requests", "*/door_states"} <= set(up["key_exprs"])
+    chair = store.router_access_control(store.load(root), "chair1")
+    rules = {r["id"]: r for r in chair["rules"]}
+    assert "*/lift_states" in rules["building-rmf/publish/ingress"]["key_exprs"]
+    assert "*/lift_states" in rules["rmf_bridge/read/ingress"]["key_exprs"]
+    assert main(["security", "show", str(root)]) == 0
+    shown = capsys.readouterr().out.split("building-rmf (host, carries rmf)\n")[1]
+    assert "  publish  */**/door_states/" in shown and ", lift_states\n" in shown
+    assert "  read     */**/adapter_door_requests/" in shown  # beyond wheelnav/**
+    assert main(["security", "add", str(root), "rmf", "--role", "viewer"]) == 2
+    assert "'rmf' is a service's or a reserved name" in capsys.readouterr().out
