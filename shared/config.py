@@ -172,7 +172,12 @@ class SimConfig:
     hardware_path: bool = False
     vlp16_host: str = field(default="127.0.0.1", metadata=check(_ip_address))
     lockstep: bool = True
-    lockstep_timeout_s: float = field(default=5.0, metadata=check(_positive))
+    # the wall time the simulator waits for a live participant's answer: a bound for one
+    # that is alive but hung (a crashed one, its liveliness token gone, is not waited for).
+    # Longer than any step's compute on a loaded machine (a manoeuvre search that uses its
+    # budget took about 4 s beside two busy loops): a run that goes on without an answer
+    # no longer repeats (event lockstep_timeout)
+    lockstep_timeout_s: float = field(default=30.0, metadata=check(_positive))
     lockstep_stages: list[list[str]] = field(
         default_factory=lambda: [
             ["localisation", "building", "mission"],

@@ -65,7 +65,13 @@ class ZenohFleet(FleetState):
         )
         self.bus = bus
         self.keys = keys
+        # in lockstep the fleet's clock stands still while a route is out (the answer to the
+        # tick is held): a planner slow on a loaded machine must not end the plan, only a
+        # hung one, which sim.lockstep_timeout_s bounds as it bounds every stage
+        lockstep = cfg.clock != "wall" and cfg.sim.lockstep
         self.route_timeout_s = cfg.navigator.plan_timeout_s
+        if lockstep:
+            self.route_timeout_s = max(self.route_timeout_s, cfg.sim.lockstep_timeout_s)
         self.participant: Participant | None = None
 
     def request_route(

@@ -16,6 +16,7 @@ streams from the emulated chair.
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
@@ -43,6 +44,7 @@ from sim.simulation import Simulation
 
 NAME = "sim"
 PROFILE_EVERY = 50  # ticks between two lockstep profiles (sim/profile)
+REANNOUNCE_S = 0.5  # wall time between two announcements of a tick still waited for
 
 
 def status_message(sim: Simulation, stamp: float) -> SimStatus:
@@ -249,8 +251,10 @@ def _run(
             if cfg.sim.lockstep and stage > 0 and not due:
                 continue  # nobody in this stage is due this tick (free running: all are)
             stage_start = clock()
-            bus.publish(clock_keys[stage], Clock(stamp, result.tick, sim.dt, stage))
-            if due and not _wait_stage(svc, barrier, wake, result.tick, stage):
+            key, announce = clock_keys[stage], Clock(stamp, result.tick, sim.dt, stage)
+            bus.publish(key, announce)
+            again = functools.partial(bus.publish, key, announce)
+            if due and not _wait_stage(svc, barrier, wake, result.tick, stage, again):
                 timeouts += 1
                 if timeouts <= 10 or timeouts % 100 == 0:
                     with wake:
@@ -279,14 +283,31 @@ def _run(
 
 
 def _wait_stage(
-    svc: Service, barrier: Barrier, wake: threading.Condition, tick: int, stage: int
+    svc: Service,
+    barrier: Barrier,
+    wake: threading.Condition,
+    tick: int,
+    stage: int,
+    announce: Callable[[], None],
 ) -> bool:
-    """Wait until every live participant of ``stage`` answered ``tick``; False on timeout."""
-    with wake:
-        return wake.wait_for(
-            lambda: svc.stop_event.is_set() or not barrier.waiting_on(tick, stage),
-            timeout=svc.cfg.sim.lockstep_timeout_s,
-        )
+    """Wait until every live participant of ``stage`` answered ``tick``; False after
+    ``sim.lockstep_timeout_s``. Every ``REANNOUNCE_S`` of the wait the tick is announced
+    again: a participant restarted meanwhile declared its subscription after the first
+    announcement and would otherwise wait for the next tick while the simulator waits for
+    it (one that has answered ignores a repeat; so does one still at work, once done)."""
+    deadline = time.monotonic() + svc.cfg.sim.lockstep_timeout_s
+
+    def done() -> bool:
+        return svc.stop_event.is_set() or not barrier.waiting_on(tick, stage)
+
+    while True:
+        left = deadline - time.monotonic()
+        with wake:
+            if wake.wait_for(done, timeout=max(0.0, min(REANNOUNCE_S, left))):
+                return True
+        if left <= REANNOUNCE_S:
+            return False
+        announce()
 
 
 def _finite(value: float, cap: float = 1e6) -> float:
