@@ -292,6 +292,14 @@ class Simulation:
             if leaf is not None:
                 leaf.set_opening(float(opening))
 
+    def kidnap(self, x: float, y: float, theta: float) -> None:
+        """Put the chair down at (x, y, theta) on its floor, standing: a kidnapping, which
+        its wheels do not feel (the odometry goes on from where it was)."""
+        s = self.state
+        s.x, s.y, s.theta, s.v, s.w = x, y, theta, 0.0, 0.0
+        self._place_body()
+        self._measure()
+
     def command(self, v: float, w: float) -> None:
         """A velocity command received now."""
         self.chair.command(v, w, self.time)
