@@ -263,6 +263,22 @@ class LocalisationConfig:
     # its clock, with the odometry of then) if that save is at most resume_within_s old
     save_every_s: float = field(default=0.5, metadata=check(_positive))
     resume_within_s: float = field(default=30.0, metadata=check(_positive))
+    # issue 15 (services/localisation/localiser.py): a scan of fewer points sees nothing to
+    # match (a hall wider than twice the LiDAR's reach) and is no miss; the pose goes on on
+    # odometry, and after reacquire_after_m of that the first scan seeing walls again is
+    # matched by a search around it, drift_per_m (m) and drift_rad_per_m (rad) wider for
+    # each metre so driven
+    min_scan_points: int = field(default=20, metadata=check(_positive))
+    reacquire_after_m: float = field(default=0.5, metadata=check(_non_negative))
+    drift_per_m: float = field(default=0.1, metadata=check(_non_negative))
+    drift_rad_per_m: float = field(default=0.02, metadata=check(_non_negative))
+    # lost, the pose is searched for on every relocalise_every_scans-th scan, widening to
+    # the whole floor, each search at most relocalise_budget evaluations (about 2 s on the
+    # development machine); after relocalise_attempts failures it stays lost and says why
+    relocalise: bool = True
+    relocalise_every_scans: int = field(default=10, metadata=check(_positive))
+    relocalise_attempts: int = field(default=5, metadata=check(_positive))
+    relocalise_budget: int = field(default=500_000, metadata=check(_at_least(1000)))
 
 
 def _fraction(v: float) -> str | None:

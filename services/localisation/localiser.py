@@ -6,6 +6,20 @@ odometry's. Map mode: the same between scans, and every scan is matched against 
 floor map (services/localisation/matcher.py) to correct the pose; scans that stop
 matching (too few points on walls, or a correction too large to be believed) are
 counted, and after ``lost_after_scans`` of them in a row the pose is flagged lost.
+
+Where the pose is in doubt it is looked for, not given up (issue 15):
+
+- A scan with fewer than ``min_scan_points`` points sees nothing to match (the middle of
+  a hall wider than twice the LiDAR's reach): no disagreement with the map, so no miss;
+  the pose goes on on odometry alone and the distance so driven is kept.
+- The first scan that sees walls again after ``reacquire_after_m`` or more of that is
+  matched by a bounded global search (services/localisation/relocalise.py) around the
+  dead-reckoned pose, the region growing with that distance (``drift_per_m``,
+  ``drift_rad_per_m``): the drift may be more than a local match reaches.
+- Lost (a kidnapping, a map that no longer fits), every ``relocalise_every_scans`` scan
+  is searched, the region widening from the pose it had to the whole floor, until one
+  pose fits unambiguously; after ``relocalise_attempts`` failures it stays lost and says
+  why. Each search is reported (:attr:`MapLocaliser.relocalisations`).
 """
 
 from __future__ import annotations
@@ -16,6 +30,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.localisation.matcher import DistanceField, Match, match_scan
+from services.localisation.relocalise import (
+    Relocalisation,
+    Relocaliser,
+    RelocaliseSettings,
+    SearchBounds,
+    widening_bounds,
+)
 from shared.geometry import angle_between, wrap_angle
 
 
@@ -70,6 +91,36 @@ class MapModeSettings:
     cutoff_m: float = 0.4
     prior_weight: float = 20.0
     max_points: int = 1000  # a 3-D cloud is thinned to this many points (evenly) to match
+    min_scan_points: int = 20
+    reacquire_after_m: float = 0.5
+    drift_per_m: float = 0.1
+    drift_rad_per_m: float = 0.02
+    relocalise: bool = True
+    relocalise_every_scans: int = 10
+    relocalise_attempts: int = 5
+    relocalise_budget: int = 500_000
+
+    @classmethod
+    def from_config(cls, lc) -> MapModeSettings:
+        """The rules of the ``localisation`` config section (shared.config.LocalisationConfig)."""
+        return cls(
+            lc.min_inlier_ratio,
+            lc.max_correction_m,
+            lc.max_correction_rad,
+            lc.lost_after_scans,
+            lc.match_cutoff_m,
+            min_scan_points=lc.min_scan_points,
+            reacquire_after_m=lc.reacquire_after_m,
+            drift_per_m=lc.drift_per_m,
+            drift_rad_per_m=lc.drift_rad_per_m,
+            relocalise=lc.relocalise,
+            relocalise_every_scans=lc.relocalise_every_scans,
+            relocalise_attempts=lc.relocalise_attempts,
+            relocalise_budget=lc.relocalise_budget,
+        )
+
+
+HISTORY = 50  # searches a MapLocaliser keeps for its reports
 
 
 class MapLocaliser:
@@ -89,6 +140,14 @@ class MapLocaliser:
         self.settings = settings
         self.misses = 0
         self.last_match: Match | None = None
+        self.blind = False  # the last scan saw nothing to match
+        self.blind_m = 0.0  # driven since then (until a scan matches again)
+        self.relocalisations: list[Relocalisation] = []  # the last HISTORY searches
+        self.searches = 0  # searches made in all (the node reports the new ones)
+        self.given_up = ""  # why the pose stays lost (relocalise_attempts failed)
+        self._searches = 0  # searches since the pose was lost
+        self._lost_scans = 0
+        self._relocalisers: dict[int, Relocaliser] = {}
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -123,15 +182,36 @@ class MapLocaliser:
         self.odometry.reset(x, y, theta, floor, odom)
         self.misses = 0
         self.last_match = None
+        self.blind, self.blind_m = False, 0.0
+        self.given_up = ""
+        self._searches = self._lost_scans = 0
 
     def update_odometry(self, ox: float, oy: float, otheta: float) -> tuple[float, float, float]:
-        return self.odometry.update(ox, oy, otheta)
+        before = self.odometry.pose
+        after = self.odometry.update(ox, oy, otheta)
+        if self.blind or self.blind_m > 0.0:
+            self.blind_m += math.hypot(after[0] - before[0], after[1] - before[1])
+        return after
 
     def update_scan(self, points: np.ndarray) -> bool:
         """Match a scan (N, 2+) in the sensor frame; True if the pose was corrected."""
         s = self.settings
+        self.blind = len(points) < s.min_scan_points
+        if self.blind:  # nothing in reach: no disagreement with the map, odometry goes on
+            return False
         if len(points) > s.max_points:
             points = points[np.linspace(0, len(points) - 1, s.max_points).astype(int)]
+        if s.relocalise and self.lost:
+            return self._while_lost(points)
+        if s.relocalise and self.blind_m >= s.reacquire_after_m:
+            d = self.blind_m
+            bounds = SearchBounds(
+                s.max_correction_m + s.drift_per_m * d,
+                min(math.pi, s.max_correction_rad + s.drift_rad_per_m * d),
+            )
+            found = self._relocaliser().search(points, self.pose, bounds, s.relocalise_budget)
+            if self._accept(found):
+                return True
         m = match_scan(
             self.field, points, self.pose, cutoff_m=s.cutoff_m, prior_weight=s.prior_weight
         )
@@ -147,6 +227,58 @@ class MapLocaliser:
             self.misses += 1
             return False
         self.misses = 0
+        self.blind_m = 0.0
         self.last_match = m
         self.odometry.correct(m.x, m.y, m.theta)
         return True
+
+    def _while_lost(self, points: np.ndarray) -> bool:
+        """Lost: search for the pose every ``relocalise_every_scans`` scan, widening from the
+        pose it had, until one fits or ``relocalise_attempts`` searches have failed."""
+        s = self.settings
+        self._lost_scans += 1
+        due = (self._lost_scans - 1) % s.relocalise_every_scans == 0
+        if self.given_up or not due:
+            return False
+        self._searches += 1
+        found = self._relocaliser().relocalise(
+            points, self.pose, widening_bounds(self.field, self.pose)
+        )
+        if self._accept(found):
+            return True
+        if self._searches >= s.relocalise_attempts:
+            self.given_up = (
+                f"no unambiguous pose after {self._searches} searches of the floor ({found.reason})"
+            )
+        return False
+
+    def _accept(self, found: Relocalisation) -> bool:
+        """Take a search's pose if it fits unambiguously; report it either way."""
+        self.searches += 1
+        self.relocalisations.append(found)
+        del self.relocalisations[:-HISTORY]
+        if not found.ok:
+            return False
+        x, y, theta = found.pose
+        self.odometry.correct(x, y, theta)
+        self.misses = 0
+        self.blind_m = 0.0
+        self.last_match = found.match
+        self._searches = self._lost_scans = 0
+        return True
+
+    def warm_up(self) -> None:
+        """Compile the search now: a first search in a mission would otherwise hold a
+        lockstep tick (or the wall-time step) for the compile."""
+        if self.settings.relocalise:
+            ring = np.linspace(0.0, 2 * math.pi, 64, endpoint=False)
+            pts = np.column_stack([3 * np.cos(ring), 3 * np.sin(ring)])
+            self._relocaliser().search(pts, self.pose, SearchBounds(0.2, 0.1))
+
+    def _relocaliser(self) -> Relocaliser:
+        """The search on this floor's field (built once per field)."""
+        key = id(self.field)
+        if key not in self._relocalisers:
+            budget = RelocaliseSettings(max_evaluations=self.settings.relocalise_budget)
+            self._relocalisers = {key: Relocaliser(self.field, budget)}
+        return self._relocalisers[key]

@@ -3,19 +3,25 @@
 ``localisation.mode: map`` (default) matches every LiDAR scan against the floor map and
 uses odometry in between; ``odometry`` dead-reckons from the start pose. It is a
 lockstep participant of the first stage, so the pose for a tick is out before the
-controller acts on that tick. A pose that stops matching the map is flagged ``lost``.
+controller acts on that tick. A pose that stops matching the map is flagged ``lost``
+(the controller stops the chair) and searched for on the map until one pose fits
+unambiguously (``relocalised`` events), or it stays lost and says why
+(``relocalise_failed``); scans that see nothing leave the pose on odometry
+(services/localisation/localiser.py).
 It saves its pose (``shared.state_store``); restarted, it resumes from it
 (``resume.py``) instead of the configured start pose.
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
 from services.localisation.localiser import MapLocaliser, MapModeSettings, OdometryLocaliser
 from services.localisation.matcher import DistanceField
+from services.localisation.relocalise import Relocalisation
 from services.localisation.resume import SavedPose, resume_from
 from shared.messages import Clock, Event, Odometry, PointCloud, Pose2D, PoseEstimate
 from shared.service import Service
@@ -23,6 +29,21 @@ from shared.site import SiteError, load_site
 from shared.state_store import StateStore
 
 NAME = "localisation"
+
+
+def search_event(found: Relocalisation) -> tuple[str, str, str]:
+    """(kind, text, level) of the event reporting one search for the pose."""
+    where = f"within {found.bounds.radius_m:.1f} m"
+    if found.ok:
+        x, y, theta = found.pose
+        return (
+            "relocalised",
+            f"pose found by a search {where}: ({x:.2f}, {y:.2f}, "
+            f"{math.degrees(theta):.0f} deg), {found.score:.0%} of the scan on walls, "
+            f"{found.evaluations} evaluations",
+            "info",
+        )
+    return "relocalise", f"no unambiguous pose {where}: {found.reason}", "warning"
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -34,22 +55,22 @@ def main(argv: list[str] | None = None) -> None:
             s = cfg.sim.start
             x, y, theta, floor = site.start_pose(s.place, s.x, s.y, s.theta, s.floor)
             if lc.mode == "map":
-                settings = MapModeSettings(
-                    lc.min_inlier_ratio,
-                    lc.max_correction_m,
-                    lc.max_correction_rad,
-                    lc.lost_after_scans,
-                    lc.match_cutoff_m,
-                )
                 field = DistanceField.for_floor(site, floor)
-                loc = MapLocaliser(field, x, y, theta, floor, settings)
+                loc = MapLocaliser(field, x, y, theta, floor, MapModeSettings.from_config(lc))
+                loc.warm_up()
             else:
                 loc = OdometryLocaliser(x, y, theta, floor)
         except (SiteError, ValueError) as exc:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
         pending: dict[str, object] = {}
-        state = {"lost": False, "match_ms": 0.0, "saved_at": -float("inf")}
+        state = {
+            "lost": False,
+            "match_ms": 0.0,
+            "saved_at": -float("inf"),
+            "searches": 0,
+            "given_up": "",
+        }
         store = StateStore.from_env(NAME)
         saved: list[SavedPose | None] = [None]  # to resume from, until the first odometry
         try:
@@ -121,6 +142,21 @@ def main(argv: list[str] | None = None) -> None:
             x, y, theta = loc.pose
             store.save(SavedPose(odom.stamp, x, y, theta, loc.floor, (p.x, p.y, p.theta)).to_dict())
 
+        def event(stamp: float, kind: str, text: str, level: str) -> None:
+            (svc.log.info if level == "info" else svc.log.warning)("%s", text)
+            bus.publish(keys.key("events", source=NAME), Event(stamp, NAME, kind, text, level))
+
+        def report_searches(stamp: float) -> None:
+            """An event per search for the pose since the last scan, and one when it gave up."""
+            new = min(loc.searches - state["searches"], len(loc.relocalisations))
+            state["searches"] = loc.searches
+            for found in loc.relocalisations[len(loc.relocalisations) - new :]:
+                kind, text, level = search_event(found)
+                event(stamp, kind, text, level)
+            if loc.given_up and not state["given_up"]:
+                event(stamp, "relocalise_failed", f"pose lost: {loc.given_up}", "error")
+            state["given_up"] = loc.given_up
+
         def step(clock: Clock) -> None:
             odom = pending.pop("odom", None)
             scan = pending.pop("scan", None)
@@ -137,6 +173,7 @@ def main(argv: list[str] | None = None) -> None:
                     pts = scan.points
                     loc.update_scan(pts[np.abs(pts[:, 2]) < lc.scan_band_m])
                     state["match_ms"] = 1000 * (time.perf_counter() - t0)
+                    report_searches(odom.stamp)
                 lost = loc.lost
             else:
                 loc.update(odom.pose.x, odom.pose.y, odom.pose.theta)

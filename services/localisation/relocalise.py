@@ -387,7 +387,7 @@ class Relocaliser:
         pose = (best.x, best.y, best.theta)
         rival = next((m for m in ranked[1:] if _far((m.x, m.y, m.theta), pose, s)), None)
         rival_score = rival.inlier_ratio if rival else 0.0
-        clear = best.inlier_ratio - rival_score >= s.margin
+        clear = rival is None or best.inlier_ratio - rival_score >= s.margin
         unambiguous = settled and clear
         reason = ""
         if not settled:

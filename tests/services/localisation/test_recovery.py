@@ -29,14 +29,7 @@ T = 0.2  # wall thickness
 
 
 def localiser(site, pose: tuple[float, float, float]) -> MapLocaliser:
-    lc = LocalisationConfig()
-    settings = MapModeSettings(
-        lc.min_inlier_ratio,
-        lc.max_correction_m,
-        lc.max_correction_rad,
-        lc.lost_after_scans,
-        lc.match_cutoff_m,
-    )
+    settings = MapModeSettings.from_config(LocalisationConfig())
     return MapLocaliser(DistanceField.for_floor(site, "1"), *pose, "1", settings)
 
 

@@ -163,3 +163,16 @@ def test_walls_and_the_world_beyond_the_map_are_never_candidates(hall) -> None:
     assert reloc.search(scan, beyond, SearchBounds(4.0, math.pi)).pose is None
     allowed = np.zeros_like(field.field, dtype=bool)
     assert not reloc.candidates(TRUTH, 100.0, allowed).any()
+
+
+def test_a_scan_that_fits_nowhere_is_refused_not_raised(tmp_path) -> None:
+    """A ring of points that no place of the room explains (the localisation's warm-up
+    searches one at start): one poor hypothesis and no rival is a refusal with its reason
+    (it raised AttributeError on the missing rival, and the service never came up)."""
+    walls = [(0, 0, 8.4, 0.2), (0, 5.2, 8.4, 5.4), (0, 0, 0.2, 5.4), (8.2, 0, 8.4, 5.4)]
+    site, _ = write_floor(tmp_path, (8.4, 5.4), walls)
+    reloc = Relocaliser(DistanceField(site.floor("1").map))
+    ring = np.linspace(0.0, 2 * math.pi, 64, endpoint=False)
+    pts = np.column_stack([1.3 * np.cos(ring), 1.3 * np.sin(ring)])
+    result = reloc.search(pts, (4.2, 2.7, 0.0), SearchBounds(0.2, 0.1))
+    assert not result.ok and result.reason
