@@ -152,6 +152,18 @@ class PedestrianConfig:
 
 
 @dataclass
+class KidnapConfig:
+    """A kidnapping (issue 15): at the first tick from ``at_s`` on with the chair standing,
+    the simulator moves it ``dx`` metres forwards and ``dy`` to its left (its own frame as
+    it stands) and turns it by ``dtheta`` radians; its wheels do not feel it."""
+
+    at_s: float = field(default=0.0, metadata=check(_non_negative))
+    dx: float = 0.0
+    dy: float = 0.0
+    dtheta: float = 0.0
+
+
+@dataclass
 class SimConfig:
     """The headless pybullet simulator."""
 
@@ -206,6 +218,7 @@ class SimConfig:
     status_rate_hz: float = field(default=10.0, metadata=check(_positive))
     start: StartPose = field(default_factory=StartPose)
     pedestrians: list[PedestrianConfig] = field(default_factory=list)
+    kidnaps: list[KidnapConfig] = field(default_factory=list)
 
 
 @dataclass

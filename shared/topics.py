@@ -231,7 +231,13 @@ TOPICS: tuple[Topic, ...] = (
         "behaviour tree snapshot on every change",
     ),
     Topic(
-        "events", "{ns}/events/{source}", m.Event, "pub", "any service", "user", "notable events"
+        "events",
+        "{ns}/events/{source}",
+        m.Event,
+        "pub",
+        "any service",
+        "user, navigator (localisation's)",
+        "notable events",
     ),
     Topic(
         "diagnostics",

@@ -122,6 +122,10 @@ def _centre_in(o: Opening, x: float, y: float) -> bool:
     return bool(abs(along) <= o.reach and abs(lateral) <= o.width / 2)
 
 
+STANDING_MPS, STANDING_RADPS = 0.01, 0.02  # a chair this slow stands (a kidnapping waits)
+KIDNAP_CLEAR_M = 0.05  # a kidnapping puts the chair down at least this far from any wall
+
+
 @dataclass
 class StepResult:
     """What one step produced: the time, whether a scan is due, and new collisions."""
@@ -131,6 +135,7 @@ class StepResult:
     scan: np.ndarray | None = None
     new_collision: bool = False
     events: list[str] = field(default_factory=list)
+    kidnapped: str = ""  # a kidnapping done in this step, in words
 
 
 class Drive(Protocol):
@@ -250,6 +255,7 @@ class Simulation:
         for name, lift in self.lifts.items():
             self._labels.update({leaf.body: f"{name} car door" for leaf in lift.leaves.values()})
         self._labels.update({p.body: f"pedestrian {i}" for i, p in enumerate(self.pedestrians)})
+        self.kidnaps = sorted(sim.kidnaps, key=lambda k: k.at_s)  # still to do
         self.nearest = ""
         self.collisions = 0
         self.in_collision = False
@@ -292,13 +298,38 @@ class Simulation:
             if leaf is not None:
                 leaf.set_opening(float(opening))
 
-    def kidnap(self, x: float, y: float, theta: float) -> None:
+    def kidnap(self, x: float, y: float, theta: float) -> bool:
         """Put the chair down at (x, y, theta) on its floor, standing: a kidnapping, which
-        its wheels do not feel (the odometry goes on from where it was)."""
+        its wheels do not feel (the odometry goes on from where it was). False, and the
+        chair left where it was, if that pose is within ``KIDNAP_CLEAR_M`` of a wall."""
         s = self.state
+        before = (s.x, s.y, s.theta)
         s.x, s.y, s.theta, s.v, s.w = x, y, theta, 0.0, 0.0
         self._place_body()
-        self._measure()
+        if self._closest()[0] > KIDNAP_CLEAR_M:
+            self._measure()
+            return True
+        s.x, s.y, s.theta = before
+        self._place_body()
+        return False
+
+    def _kidnap_due(self) -> str:
+        """Do the next configured kidnapping if its time has come and the chair stands."""
+        s = self.state
+        standing = abs(s.v) < STANDING_MPS and abs(s.w) < STANDING_RADPS
+        if not self.kidnaps or self.time < self.kidnaps[0].at_s or not standing:
+            return ""
+        k = self.kidnaps.pop(0)
+        x0, y0, th0 = s.x, s.y, s.theta
+        c, si = math.cos(th0), math.sin(th0)
+        to = (x0 + c * k.dx - si * k.dy, y0 + si * k.dx + c * k.dy, th0 + k.dtheta)
+        where = f"({to[0]:.2f}, {to[1]:.2f}, {math.degrees(to[2]):.0f} deg)"
+        if not self.kidnap(*to):
+            return f"not moved to {where}: within {KIDNAP_CLEAR_M} m of a wall"
+        return (
+            f"the chair was moved from ({x0:.2f}, {y0:.2f}, {math.degrees(th0):.0f} deg) "
+            f"to {where} while standing"
+        )
 
     def command(self, v: float, w: float) -> None:
         """A velocity command received now."""
@@ -323,6 +354,7 @@ class Simulation:
             result.new_collision = True
         if self.chair.watchdog_tripped and not tripped_before:
             result.events.append("watchdog: no command, stopping")
+        result.kidnapped = self._kidnap_due()
         if self.tick % self.scan_every == 0:
             s = self.state
             result.scan = self.lidar.scan(s.x, s.y, s.theta, self.z)
@@ -354,8 +386,9 @@ class Simulation:
             physicsClientId=self.world.client,
         )
 
-    def _measure(self) -> None:
-        """Footprint clearance to the nearest wall (negative = penetration) and collision flag."""
+    def _closest(self) -> tuple[float, int | None]:
+        """The footprint's distance to the nearest body within ``CLEARANCE_RANGE_M``
+        (negative = penetration; inf if none) and that body."""
         client = self.world.client
         lo, hi = pb.getAABB(self.body, physicsClientId=client)
         lo = [lo[0] - CLEARANCE_RANGE_M, lo[1] - CLEARANCE_RANGE_M, lo[2]]
@@ -369,6 +402,11 @@ class Simulation:
             for p in pts:
                 if p[8] < best:
                     best, nearest = p[8], body
+        return best, nearest
+
+    def _measure(self) -> None:
+        """Footprint clearance to the nearest wall (negative = penetration) and collision flag."""
+        best, nearest = self._closest()
         self.nearest = self._labels.get(nearest, "wall") if nearest is not None else ""
         self.clearance = best
         self.min_clearance = min(self.min_clearance, best)

@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> None:
                 kind, text, level = search_event(found)
                 event(stamp, kind, text, level)
             if loc.given_up and not state["given_up"]:
-                event(stamp, "relocalise_failed", f"pose lost: {loc.given_up}", "error")
+                event(stamp, "relocalise_failed", loc.given_up, "error")
             state["given_up"] = loc.given_up
 
         def step(clock: Clock) -> None:

@@ -46,6 +46,7 @@ from shared.messages import (
     TERMINAL_STATES,
     Availability,
     DriverStatus,
+    Event,
     NavGoal,
     NavResume,
     NavStatus,
@@ -56,6 +57,7 @@ from shared.messages import (
 )
 
 NAME = "navigator"
+FASTEST_MPS = 1.0  # faster than the chair drives: a pose that moves faster has jumped
 WAY_ON_M = 1.5  # how far along the route a recovery faces, or manoeuvres onto it
 # held while following a leg, a recovery marks the leg's stretch from UNTRAVERSED_FROM_M
 # ahead of the chair's pose point to UNTRAVERSED_REACH_M beyond its front (the reach of
@@ -157,6 +159,8 @@ class Navigator:
         self._gate: PauseGate | None = None  # the running tree's root
         self._held = False  # the mission was held at the last step
         self._held_at: Pose2D | None = None  # where the chair stood when the hold began
+        # the pose estimate at the last step, its time, whether it was lost
+        self._last_pose: tuple[Pose2D | None, float, bool] = (None, 0.0, False)
         self.bb = py_trees.blackboard.Client(name=NAME, namespace=NS)
         for key in ("goal", "place", "failure", "phase", "route", "blocked", "action", "recover"):
             self.bb.register_key(key, access=Access.WRITE)
@@ -249,6 +253,16 @@ class Navigator:
         self.holds.rider = msg.joystick_active
         self._pause_for_rider()
 
+    def on_localisation_event(self, msg: Event) -> None:
+        """The localisation gave its pose up (``relocalise_failed``: no search found one that
+        fits unambiguously): nothing more will come of waiting, so a running mission stops
+        the chair and fails now, saying why, instead of at the end of the safety limit."""
+        if msg.kind != "relocalise_failed" or not self.running:
+            return
+        self.tree.root.stop(Status.INVALID)
+        self.fleet.stop()
+        self._set("failed", reason=f"localisation lost: {msg.detail}")
+
     def on_resume(self, msg: NavResume) -> None:
         """Resume the mission the rider paused (refused, saying why, if it cannot be)."""
         who = msg.source or "?"
@@ -276,6 +290,7 @@ class Navigator:
             self.leases.renew(now)
             self._pause_for_rider()
             self._watch_hold()
+            self._watch_jump()
             self.tree.tick()
             self._stream_tree(now)
             result = self.tree.root.status
@@ -314,11 +329,34 @@ class Navigator:
             return
         self._held = False
         moved = moved_m(self._held_at, here)
-        if moved <= MOVED_M or self.bb.phase in IN_A_CAR or not (self.driving or self.recovering):
+        if moved > MOVED_M:
+            self._plan_again("hold_over", f"moved {moved:.1f} m while held")
+
+    def _watch_jump(self) -> None:
+        """A pose found again after it was lost, more than ``MOVED_M`` from where it was
+        (beyond what the chair can drive in the time, ``FASTEST_MPS``) on one floor: the
+        localisation found the chair elsewhere (relocalised after a kidnapping), and the
+        route no longer starts where it stands; plan again from there (outside a lift
+        car)."""
+        est = self.fleet.pose()
+        now = self.fleet.now()
+        here = None if est is None else est.pose
+        lost = est is not None and est.lost
+        (before, then, was_lost), self._last_pose = self._last_pose, (here, now, lost)
+        if not was_lost or lost or before is None or here is None:
+            return
+        moved = moved_m(before, here)
+        if math.isfinite(moved) and moved - FASTEST_MPS * max(0.0, now - then) > MOVED_M:
+            self._plan_again("pose_jump", f"the pose was found {moved:.1f} m from where it was")
+
+    def _plan_again(self, kind: str, why: str) -> None:
+        """Stop what runs and plan the route again from where the chair stands (not in a
+        lift car, and only while a route or a recovery runs)."""
+        if self.bb.phase in IN_A_CAR or not (self.driving or self.recovering):
             return
         self.tree.root.stop(Status.INVALID)
         self.recovering = False
-        self.fleet.event("hold_over", f"moved {moved:.1f} m while held: planning again from here")
+        self.fleet.event(kind, f"{why}: planning again from here")
         self._plan()
         self._set("running", phase=Phase.PLAN, action="re-plan")
 

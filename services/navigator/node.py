@@ -28,6 +28,7 @@ from shared.messages import (
     Clock,
     DoorState,
     DriverStatus,
+    Event,
     FollowStatus,
     LiftState,
     NavGoal,
@@ -243,6 +244,11 @@ def main(argv: list[str] | None = None) -> None:
             svc.declare("subscribes", keys.driver_status), DriverStatus, nav.on_driver_status
         )
         bus.subscribe(svc.declare("subscribes", keys.nav_resume), NavResume, nav.on_resume)
+        bus.subscribe(
+            svc.declare("subscribes", keys.key("events", source="localisation")),
+            Event,
+            nav.on_localisation_event,
+        )
         svc.declare("publishes", keys.nav_status)
         svc.declare("publishes", keys.tree)
         svc.declare("publishes", keys.nav_route)

@@ -239,6 +239,8 @@ def _run(
             )
         for text in result.events:
             bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
+        if result.kidnapped:
+            bus.publish(events_key, Event(stamp, NAME, "kidnapped", result.kidnapped, "warning"))
         if result.new_collision or result.tick % status_every == 0:
             bus.publish(keys.sim_status, status_message(sim, stamp))
         if result.tick % PROFILE_EVERY == 0:

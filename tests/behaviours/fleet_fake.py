@@ -65,6 +65,7 @@ class ScriptedFleet:
         self.forgotten = 0
         self.untraversed: list[tuple[str, np.ndarray]] = []  # (floor, points) marked
         self.no_pose = False  # True: no pose estimate yet
+        self.lost = False  # the localisation's lost flag
 
     def now(self) -> float:
         return self.t
@@ -100,7 +101,7 @@ class ScriptedFleet:
     def pose(self) -> PoseEstimate | None:
         if self.no_pose:
             return None
-        return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3))
+        return PoseEstimate(self.t, Pose2D(self.x, self.y, self.th), np.eye(3), self.lost)
 
     def odometry(self) -> Odometry:
         return Odometry(self.t, Pose2D(self.x, self.y, self.th), 0.0, self.turning)

@@ -593,3 +593,51 @@ def test_held_on_a_leg_the_stretch_ahead_is_marked_untraversed_for_the_re_plan()
     assert nav2.status.phase == Phase.TURN, nav2.status
     hold_until_replanned(nav2, fleet2)
     assert fleet2.untraversed == []
+
+
+def test_a_pose_found_far_from_where_it_was_lost_plans_the_route_again() -> None:
+    """Issue 15, kidnapping: the chair moved 2 m while standing; the localisation lost its
+    pose and found it again there. The route being driven no longer starts where the
+    chair stands: the navigator plans again from there (a pose found where it was lost,
+    or one moved while not lost, plans nothing)."""
+    fleet = ScriptedFleet(route(door()))
+    nav, _out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    asked = len(fleet.route_requests)
+    for lost, dx in ((True, 0.0), (False, 0.0), (False, 0.3)):  # found where it was lost
+        fleet.lost, fleet.x = lost, fleet.x + dx
+        fleet.t += 0.1
+        step(nav, fleet)
+    assert len(fleet.route_requests) == asked and nav.status.phase == Phase.FOLLOW
+    fleet.lost = True
+    fleet.t += 0.1
+    step(nav, fleet)
+    fleet.lost, fleet.x, fleet.y = False, fleet.x - 1.7, fleet.y - 1.0  # found 2 m away
+    fleet.t += 0.1
+    step(nav, fleet)
+    jumps = [d for k, d in fleet.events if k == "pose_jump"]
+    assert jumps and "2.0 m" in jumps[0], fleet.events
+    step(nav, fleet)
+    assert len(fleet.route_requests) == asked + 1
+    assert nav.status.state == "running"
+
+
+def test_a_pose_the_localisation_gave_up_ends_the_mission_at_once_saying_why() -> None:
+    """Kidnapped in a building whose two rooms mirror each other, the localisation finds
+    two poses that fit as well and gives up (relocalise_failed): the mission stops the
+    chair and fails now with that reason, not at the end of the 60 s safety limit."""
+    from shared.messages import Event
+
+    fleet = ScriptedFleet(route(door()))
+    nav, _out = navigator(fleet)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    nav.on_localisation_event(Event(1.0, "localisation", "relocalise", "ambiguous", "warning"))
+    step(nav, fleet)
+    assert nav.status.state == "running"
+    why = "no unambiguous pose after 5 searches of the floor (ambiguous: ...)"
+    stops = fleet.stops
+    nav.on_localisation_event(Event(2.0, "localisation", "relocalise_failed", why, "error"))
+    assert nav.status.state == "failed" and fleet.stops > stops
+    assert nav.status.reason == f"localisation lost: {why}"
