@@ -3,7 +3,8 @@
 For each door: the position and heading error at the end of position correction (the
 navigator's Phase 0, read from its status; without one, the closest approach and the
 heading at set-off), how long it waited at the approach pose, its lateral offset from
-the door's centre when it crossed the door plane, and the time of each phase. For each
+the door's centre when it crossed the door plane, the localisation's error then (its
+estimate of that tick against the truth: issue 15), and the time of each phase. For each
 elevator: the floors, the phases (waiting for the car, entering, the ride, leaving).
 Pure: the runner feeds it the route, the navigator's status and the true poses.
 """
@@ -18,6 +19,7 @@ from shared.geometry import angle_between
 from shared.messages import Checkpoint, Phase
 
 NEAR_M = 0.3  # "at the approach pose": within this distance of it
+LOC_KEPT = 500  # estimate errors kept by stamp (10 s at 50 Hz) for doors crossed
 STILL = 0.03  # m/s: standing
 
 
@@ -30,6 +32,7 @@ class _Track:
     heading_error_deg: float | None = None
     crossed_s: float | None = None
     lateral_offset_m: float | None = None
+    loc_error_m: float | None = None  # the estimate's error at the crossing tick
     floor_after: str = ""
     corrected: bool = False
     passed_s: float | None = None  # crossed the door plane / out of the car: done when the
@@ -73,6 +76,7 @@ class CheckpointLog:
     done: list[dict[str, Any]] = field(default_factory=list)
     _queue: list[_Track] = field(default_factory=list)
     _truth: PoseHistory = field(default_factory=PoseHistory)
+    _loc: dict[float, float] = field(default_factory=dict)  # recent estimate errors by stamp
     _phase: tuple[str, float] | None = None  # (name, start) of the head's running phase
 
     def on_route(self, checkpoints: list[Checkpoint], stamp: float = 0.0) -> None:
@@ -121,6 +125,17 @@ class CheckpointLog:
             return
         x, y, _ = self._truth_at(stamp)
         head.closing_at = (stamp, x, y)
+
+    def on_loc_error(self, stamp: float, error_m: float) -> None:
+        """The localisation's position error of the tick at ``stamp`` (estimate against
+        truth): kept a while, and given to a door crossed at that tick."""
+        key = round(stamp, 6)
+        self._loc[key] = error_m
+        if len(self._loc) > LOC_KEPT:
+            del self._loc[next(iter(self._loc))]
+        for t in self._queue:
+            if t.crossed_s is not None and round(t.crossed_s, 6) == key:
+                t.loc_error_m = error_m
 
     def _truth_at(self, stamp: float) -> Pose | None:
         """The true pose of the tick at ``stamp`` (the latest one if it is not known)."""
@@ -184,6 +199,7 @@ class CheckpointLog:
         if t._side is not None and t._side < 0 <= side:
             t.crossed_s = stamp
             t.lateral_offset_m = -(x - c.x) * n[1] + (y - c.y) * n[0]
+            t.loc_error_m = self._loc.get(round(stamp, 6))  # else when its estimate comes
             t.passed_s = stamp
             return
         t._side = side
@@ -213,7 +229,13 @@ class CheckpointLog:
             }
         )
         if cp.kind == "door":
-            row.update({"crossed_s": _r(t.passed_s), "lateral_offset_m": _r(t.lateral_offset_m, 3)})
+            row.update(
+                {
+                    "crossed_s": _r(t.passed_s),
+                    "lateral_offset_m": _r(t.lateral_offset_m, 3),
+                    "loc_error_m": _r(t.loc_error_m, 4),
+                }
+            )
             if t.closing_at is not None:
                 row["closing_at_s"] = _r(t.closing_at[0])
                 row["closing_stop_m"] = _r(t.closing_stop_m, 3)

@@ -232,7 +232,9 @@ class Recorder:
         if truth is None or self.finished:
             return
         dth = wrap_angle(theta - truth[2])
-        self._loc_sq.append(((x - truth[0]) ** 2 + (y - truth[1]) ** 2, dth**2))
+        sq = (x - truth[0]) ** 2 + (y - truth[1]) ** 2
+        self._loc_sq.append((sq, dth**2))
+        self.checkpoints.on_loc_error(stamp, math.sqrt(sq))
 
     def on_follow(self, state: str, cross_track: float, precise: bool) -> None:
         """The controller's cross-track error while following a leg (not door passes)."""

@@ -38,3 +38,28 @@ def test_phase0_errors_are_taken_at_the_status_tick_whatever_arrives_first() -> 
     assert in_order["position_error_m"] == late["position_error_m"] == 0.022  # (0.98, 0.01)
     assert in_order["heading_error_deg"] == late["heading_error_deg"] == 1.15  # 0.02 rad
     assert in_order["correction_s"] == 1.0 and in_order["result"] == "abandoned"
+
+
+def crossed(estimate_first: bool) -> dict:
+    """Through the door: the truth crosses its plane at 5.0 s, the estimate of that tick
+    is 3 cm off and comes before or after the truth."""
+    log = CheckpointLog()
+    log.on_route([DOOR])
+    log.on_truth(1.0, 1.0, 0.0, 0.0, 0.0, "1")
+    log.on_status(1.0, "Door d1 (2/3)", "pass")
+    log.on_truth(4.98, 1.99, 0.0, 0.0, 0.2, "1")
+    log.on_loc_error(4.98, 0.5)  # the tick before: not this door's figure
+    if estimate_first:
+        log.on_loc_error(5.0, 0.03)
+    log.on_truth(5.0, 2.01, 0.0, 0.0, 0.2, "1")
+    if not estimate_first:
+        log.on_loc_error(5.0, 0.03)
+    log.on_status(5.1, "Leg 1 (3/3)", "follow")
+    (row,) = log.rows(6.0)
+    return row
+
+
+def test_the_localisation_error_is_taken_at_the_door_crossing_whatever_arrives_first() -> None:
+    # issue 15: the localisation error at every door checkpoint, on the ground truth
+    assert crossed(True)["loc_error_m"] == crossed(False)["loc_error_m"] == 0.03
+    assert crossed(True)["result"] == "passed"
