@@ -66,6 +66,7 @@ class ScriptedFleet:
         self.untraversed: list[tuple[str, np.ndarray]] = []  # (floor, points) marked
         self.no_pose = False  # True: no pose estimate yet
         self.lost = False  # the localisation's lost flag
+        self.door_clear = False  # the leaves of the doors waiting to close cannot reach it
 
     def now(self) -> float:
         return self.t
@@ -115,6 +116,14 @@ class ScriptedFleet:
     def close_door_when_clear(self, door_id, floor, centre, width_m) -> None:
         self.door_requests.append((door_id, DoorMode.CLOSED))
         self.closing[door_id] = (floor, centre, width_m)
+
+    def doors_clear_to_close(self) -> list[str]:
+        """The doors waiting to close, once ``door_clear`` says their leaves cannot reach
+        the chair (each once)."""
+        if not self.door_clear:
+            return []
+        due, self.closing = list(self.closing), {}
+        return due
 
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         self.widths.append(width_m)

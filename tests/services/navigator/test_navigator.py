@@ -641,3 +641,45 @@ def test_a_pose_the_localisation_gave_up_ends_the_mission_at_once_saying_why() -
     nav.on_localisation_event(Event(2.0, "localisation", "relocalise_failed", why, "error"))
     assert nav.status.state == "failed" and fleet.stops > stops
     assert nav.status.reason == f"localisation lost: {why}"
+
+
+def test_a_powered_door_behind_the_chair_is_held_open_until_its_leaf_cannot_reach_it() -> None:
+    """Campaign b4001.m02 (seeds 4000-4011): past powered hinged door d2_015 the chair was
+    held 0.9 m beyond it and its recoveries kept it within the leaf's reach. Handing the
+    door over to be closed once clear, the navigator had stopped renewing its open
+    request, so 30 s later the building's lease (building.door_session_lease_s) ran out
+    and the leaf closed into the chair (a collision 0.34 m deep). A door waiting to close
+    is asked open again every lease_renew_s until its leaf cannot reach the chair, also
+    after the mission ended; only then is it left to close."""
+    fleet = ScriptedFleet(route(door("powered")))
+    nav, _out = navigator(fleet, lease_renew_s=5.0)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    through_the_door(nav, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    for _ in range(3):
+        fleet.t += 0.1
+        step(nav, fleet)
+    fleet.arrive()  # through: the pass hands the door over to be closed once clear
+    step(nav, fleet)
+    assert "d1" in fleet.closing, fleet.door_requests
+    asked = len(fleet.door_requests)
+
+    def wait(seconds: float) -> None:
+        start = fleet.t
+        while fleet.t < start + seconds:
+            fleet.t += 0.5
+            step(nav, fleet)
+            nav.leases.doors_clear_to_close()  # as the node does every step
+
+    wait(11.0)  # held within the leaf's reach
+    assert fleet.door_requests[asked:] == [("d1", DoorMode.OPEN)] * 2, fleet.door_requests
+    nav.on_goal(NavGoal(fleet.t, "", cancel=True))  # ended meanwhile: still not closed
+    assert fleet.door_requests[-1] == ("d1", DoorMode.OPEN), fleet.door_requests
+    wait(5.5)
+    assert fleet.door_requests[-1] == ("d1", DoorMode.OPEN), fleet.door_requests
+    fleet.door_clear = True
+    wait(0.5)
+    asked = len(fleet.door_requests)
+    wait(12.0)
+    assert fleet.door_requests[asked:] == [], "renewed once its leaf could not reach the chair"
