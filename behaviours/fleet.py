@@ -86,6 +86,10 @@ class Fleet(Protocol):
         """Remember the scan points just ahead of the chair as obstacles for the route
         requests of this mission (a re-plan goes around them); how many were marked."""
 
+    def hold_door_open(self, door_id: str) -> None:
+        """Ask a door the chair has passed to stay open (a lease renewal) without dropping
+        its :meth:`close_door_when_clear`."""
+
     def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
         """Remember ``points`` (N, 2, map frame on ``floor``), a stretch of a leg the chair
         was held on, for the route requests of this mission: a re-plan goes another way

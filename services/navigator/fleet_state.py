@@ -342,6 +342,10 @@ class FleetState:
             self._closing.pop(door_id, None)
         return DoorRequest(self.now(), self.robot, door_id, mode)
 
+    def hold_door_open_request(self, door_id: str) -> DoorRequest:
+        """The renewal of a passed door's open request: its close when clear still waits."""
+        return DoorRequest(self.now(), self.robot, door_id, DoorMode.OPEN)
+
     def close_door_when_clear(
         self, door_id: str, floor: str, centre: tuple[float, float, float], width_m: float
     ) -> None:

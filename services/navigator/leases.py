@@ -11,8 +11,11 @@ the floor it last asked, every ``navigator.lease_renew_s``; when the mission end
 It stands between the mission tree and the fleet: the tree's behaviours call
 ``request_lift``, ``release_lift``, ``request_door`` and ``close_door_when_clear`` on it as
 on the fleet, and every other call passes through. A door handed to
-``close_door_when_clear`` is no longer renewed (the fleet closes it once the chair is
-clear; the lease is the backstop). Pure: the fleet's clock, no I/O of its own.
+``close_door_when_clear`` is still asked open every ``renew_s`` until the fleet finds its
+leaf can no longer reach the chair (:meth:`doors_clear_to_close`), whatever the mission
+does meanwhile, ended or not: left to the building's lease, a door closed into a chair held
+within its reach (campaign b4001.m02). The lease stays the backstop for a navigator that
+dies. Pure: the fleet's clock, no I/O of its own.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ class Leases:
         self.renew_s = renew_s
         self.lifts: dict[str, str] = {}  # lift id -> the floor last asked for
         self.doors: set[str] = set()  # powered doors asked open, not yet handed back
+        self.closing: set[str] = set()  # passed: held open until the leaf cannot reach
         self._asked_at: dict[tuple[str, str], float] = {}  # (kind, id) -> when
 
     def __getattr__(self, name: str) -> Any:
@@ -55,7 +59,18 @@ class Leases:
 
     def close_door_when_clear(self, door_id: str, *args: Any) -> None:
         self._fleet.close_door_when_clear(door_id, *args)
-        self._forget_door(door_id)
+        self.doors.discard(door_id)
+        self.closing.add(door_id)
+        self._asked_at.setdefault(("door", door_id), self._fleet.now())
+
+    def doors_clear_to_close(self) -> list[Any]:
+        """The fleet's close requests for the doors whose leaves can no longer reach the
+        chair (to send); those are no longer held open."""
+        due = self._fleet.doors_clear_to_close()
+        for req in due:
+            self.closing.discard(req.door_name)
+            self._asked_at.pop(("door", req.door_name), None)
+        return due
 
     def _forget_door(self, door_id: str) -> None:
         self.doors.discard(door_id)
@@ -69,6 +84,10 @@ class Leases:
         for door_id in sorted(self.doors):
             if now - self._asked_at.get(("door", door_id), now) >= self.renew_s:
                 self.request_door(door_id, DoorMode.OPEN)
+        for door_id in sorted(self.closing):
+            if now - self._asked_at.get(("door", door_id), now) >= self.renew_s:
+                self._fleet.hold_door_open(door_id)
+                self._asked_at["door", door_id] = now
 
     def release(self, checkpoint_id: str) -> bool:
         """End the session of a lift or the open request of a door the mission gives up

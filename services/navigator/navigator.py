@@ -286,8 +286,8 @@ class Navigator:
 
     def step(self, now: float) -> None:
         """Tick the running tree once (``now``: the fleet clock), then publish the status."""
+        self.leases.renew(now)  # doors passed are held open until clear, mission or not
         if self.running:
-            self.leases.renew(now)
             self._pause_for_rider()
             self._watch_hold()
             self._watch_jump()

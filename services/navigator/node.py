@@ -116,6 +116,11 @@ class ZenohFleet(FleetState):
     def event(self, kind: str, detail: str) -> None:
         self.bus.publish(self.keys.key("events", source=NAME), self.event_message(kind, detail))
 
+    def hold_door_open(self, door_id: str) -> None:
+        self.bus.publish(
+            self.keys.key("door_request", door=door_id), self.hold_door_open_request(door_id)
+        )
+
     def request_door(self, door_id: str, mode: int) -> None:
         self.bus.publish(
             self.keys.key("door_request", door=door_id), self.door_request(door_id, mode)
@@ -226,7 +231,7 @@ def main(argv: list[str] | None = None) -> None:
                 saver.take_up(clock.stamp)
             nav.step(clock.stamp)
             saver.save(clock.stamp)
-            for req in fleet.doors_clear_to_close():
+            for req in nav.leases.doors_clear_to_close():
                 bus.publish(keys.key("door_request", door=req.door_name), req)
 
         bus.subscribe(svc.declare("subscribes", keys.pose), PoseEstimate, fleet.on_pose)

@@ -17,6 +17,7 @@ import numpy as np
 from shared.messages import (
     Checkpoint,
     DoorMode,
+    DoorRequest,
     FollowStatus,
     LiftState,
     Odometry,
@@ -117,13 +118,16 @@ class ScriptedFleet:
         self.door_requests.append((door_id, DoorMode.CLOSED))
         self.closing[door_id] = (floor, centre, width_m)
 
-    def doors_clear_to_close(self) -> list[str]:
+    def hold_door_open(self, door_id: str) -> None:
+        self.door_requests.append((door_id, DoorMode.OPEN))
+
+    def doors_clear_to_close(self) -> list[DoorRequest]:
         """The doors waiting to close, once ``door_clear`` says their leaves cannot reach
         the chair (each once)."""
         if not self.door_clear:
             return []
         due, self.closing = list(self.closing), {}
-        return due
+        return [DoorRequest(self.t, "chair1", d, DoorMode.CLOSED) for d in due]
 
     def lidar_door_state(self, x: float, y: float, width_m: float) -> tuple[float, str]:
         self.widths.append(width_m)

@@ -119,6 +119,8 @@ def test_a_powered_door_is_closed_only_once_its_leaf_cannot_reach_the_chair() ->
     assert s.doors_clear_to_close() == []
     s.on_pose(PoseEstimate(11.0, Pose2D(29.5, 14.9, 0.0, "3"), np.eye(3)))
     assert s.doors_clear_to_close() == []  # the leaf's tip still reaches the chair's front
+    held = s.hold_door_open_request("d3_021")  # renewed meanwhile: the close still waits
+    assert (held.door_name, held.requested_mode) == ("d3_021", DoorMode.OPEN)
     s.on_pose(PoseEstimate(12.0, Pose2D(30.6, 14.9, 0.0, "3"), np.eye(3)))
     (req,) = s.doors_clear_to_close()
     assert (req.door_name, req.requested_mode) == ("d3_021", DoorMode.CLOSED)
