@@ -5,7 +5,10 @@ halls, furniture and lifts, each floor its own layout) in the site format, and a
 missions whose expected outcome follows from how the building was built, written as
 scenarios under ``folder/missions``. Everything comes from one
 ``numpy.random.default_rng(seed)``: the same seed gives byte-identical files. The point
-is geometry nobody tuned the navigation stack for.
+is geometry nobody tuned the navigation stack for. With ``GenOptions.world_differs`` it
+also draws the world the simulator builds apart from the map the stack is given
+(``folder/world``, :mod:`sim.building_gen.world`), which the missions name as their
+``world_site``.
 """
 
 from __future__ import annotations
@@ -17,19 +20,21 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sim.building_gen.draw import MARGIN, write_site
+from sim.building_gen.draw import MARGIN, extent, write_site
 from sim.building_gen.layout import FloorBuilder
 from sim.building_gen.lobby import make_lobby
 from sim.building_gen.missions import MissionPlanner, MissionSpec, write_missions
 from sim.building_gen.options import MISSION_KINDS, GenOptions
 from sim.building_gen.plan import BuildingPlan
 from sim.building_gen.topology import Topology
+from sim.building_gen.world import WORLD_FOLDER, WorldDiff, draw_world
 
 __all__ = [
     "MISSION_KINDS",
     "GenOptions",
     "GeneratedBuilding",
     "MissionSpec",
+    "WorldDiff",
     "generate_building",
 ]
 
@@ -47,16 +52,23 @@ class GeneratedBuilding:
     geometry: dict
     plan: BuildingPlan = field(repr=False)
     topology: Topology = field(repr=False)
+    world: WorldDiff | None = None  # what the world differs in (GenOptions.world_differs)
+
+    @property
+    def world_path(self) -> Path | None:
+        """The world's site folder, None where the world is the map."""
+        return self.site_path / WORLD_FOLDER if self.world is not None else None
 
     def summary(self) -> str:
-        """One line: seed, floors, counts and the missions' kinds."""
+        """One line: seed, floors, counts and the missions' kinds (and what the world adds)."""
         g = self.geometry
         kinds = ",".join(m.kind + ("!" if m.expect == "failure" else "") for m in self.missions)
+        world = f"; {self.world.summary()}" if self.world is not None else ""
         return (
             f"seed {self.seed}: {g['floors']} floor(s), {len(g['door_widths_m'])} doors, "
             f"{len(g['room_sizes_m2'])} rooms, {len(g['hall_sizes_m2'])} halls, "
             f"{g['doors_in_series']} series, {len(g['lift_headings_deg'])} lifts, "
-            f"{g['places']} places; missions {kinds}"
+            f"{g['places']} places; missions {kinds}{world}"
         )
 
 
@@ -80,21 +92,38 @@ def generate_building(
     x0, y0, _, _ = plan.bounds()
     plan.transform(0, round(MARGIN - x0, 6), round(MARGIN - y0, 6))
     write_site(plan, folder)
+    world = _write_world(plan, seed, folder) if opts.world_differs else None
     topology = Topology(plan)
     missions = MissionPlanner(plan, topology, rng).plan_missions(opts, seed)
-    scenarios = write_missions(missions, folder / "missions")
+    world_site = f"../{WORLD_FOLDER}" if world is not None else None
+    scenarios = write_missions(missions, folder / "missions", world_site=world_site)
     geometry = measure(plan)
-    summary = {
-        "seed": seed,
-        "options": asdict(opts),
-        "geometry": geometry,
-        "missions": [
-            {"name": m.name, "kind": m.kind, "expect": m.expect, "file": p.name}
-            for m, p in zip(missions, scenarios, strict=True)
-        ],
-    }
+    summary = {"seed": seed, "options": _recorded(opts), "geometry": geometry}
+    if world is not None:
+        geometry["world"] = world.sizes()
+        summary["world"] = world.record()
+    summary["missions"] = [
+        {"name": m.name, "kind": m.kind, "expect": m.expect, "file": p.name}
+        for m, p in zip(missions, scenarios, strict=True)
+    ]
     (folder / "generated.yaml").write_text(yaml.safe_dump(summary, sort_keys=False, width=100))
-    return GeneratedBuilding(seed, folder, scenarios, missions, geometry, plan, topology)
+    return GeneratedBuilding(seed, folder, scenarios, missions, geometry, plan, topology, world)
+
+
+def _write_world(plan: BuildingPlan, seed: int, folder: Path) -> WorldDiff:
+    """Draw the world apart from ``plan`` into ``folder/world`` on the map's grid."""
+    world, diff = draw_world(plan, seed)
+    write_site(world, folder / WORLD_FOLDER, extent(plan))
+    return diff
+
+
+def _recorded(opts: GenOptions) -> dict:
+    """The options as generated.yaml records them: ``world_differs`` only when on, so a
+    building drawn without it is recorded byte for byte as before the option existed."""
+    options = asdict(opts)
+    if not opts.world_differs:
+        del options["world_differs"]
+    return options
 
 
 def measure(plan: BuildingPlan) -> dict:

@@ -1,7 +1,8 @@
 """``python -m sim.building_gen SEED OUTDIR [--floors N] [--count K]``: draw buildings.
 
 One building goes into OUTDIR itself; with ``--count K`` buildings SEED..SEED+K-1 go into
-OUTDIR/seed_<n>. Prints one summary line per building.
+OUTDIR/seed_<n>. ``--world-differs`` also draws each building's world apart from its map
+(``world/``, :mod:`sim.building_gen.world`). Prints one summary line per building.
 """
 
 from __future__ import annotations
@@ -20,8 +21,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--floors", type=int, help="exactly this many floors (1-3)")
     parser.add_argument("--count", type=int, default=1, help="how many buildings")
     parser.add_argument("--missions", type=int, default=8, help="missions per building")
+    parser.add_argument(
+        "--world-differs",
+        action="store_true",
+        help="also draw the world (OUTDIR/world) apart from the map: doors, furniture, a wall",
+    )
     args = parser.parse_args(argv)
-    opts = GenOptions(missions=args.missions)
+    opts = GenOptions(missions=args.missions, world_differs=args.world_differs)
     if args.floors is not None:
         opts.floors = (args.floors, args.floors)
     for seed in range(args.seed, args.seed + args.count):

@@ -33,6 +33,9 @@ STRAIGHT = 1.2  # free straight approach on both sides of a door
 LEAF = 0.05  # leaf thickness
 WIDTHS = (0.8, 1.2)  # free door width range
 
+# a door's needs: turning-disc centres, open leaf, its sweep, sliding pocket
+Found = tuple[list[Point], Rect | None, Rect | None, Rect | None]
+
 
 def vestibule_depth_m(outer: DoorSpec, vestibule_m: float) -> float:
     """The least free depth of the room between two doors in series whose first door is
@@ -133,13 +136,10 @@ def _commit_first(
     for low_first in (not flip, flip):
         p1t, p2t = (t_lo, t_hi) if low_first else (t_hi, t_lo)
         door_id = f"d{st.plan.name}_{st.counters.get('door', 0) + 1:03d}"
-        if motion == "hinged":
-            found = _hinged(st, wall, p1t, p2t, door_id)
-        else:
-            found = _sliding(st, wall, p1t, p2t, door_id)
+        found = door_rules(st, wall, p1t, p2t, motion, door_id)
         if found is None:
             continue
-        discs, leaf, sweep, pocket = found
+        _, leaf, _, pocket = found
         st.next_id("door")
         st.carve(gap)
         p1, p2 = wall.xy(p1t, 0.0), wall.xy(p2t, 0.0)
@@ -157,17 +157,50 @@ def _commit_first(
             leaf,
         )
         st.plan.doors.append(door)
-        for x, y in discs:
-            st.keep_disc("zone", door_id, x, y, DISC_R)
-        for side in (-1, 1):
-            st.keep_rect("zone", door_id, _strip(wall, t_lo, t_hi, side))
+        keep_door(st, wall, t_lo, t_hi, door_id, found)
         if leaf is not None:
             st.free.obstacles.append(leaf)
-            st.keep_rect("sweep", door_id, sweep)
         if pocket is not None:
             st.pockets.append(pocket)
         return door
     return None
+
+
+def door_rules(
+    st: FloorState, wall: Wall, p1t: float, p2t: float, motion: str, door_id: str
+) -> Found | None:
+    """What a door from ``p1t`` to ``p2t`` along ``wall`` needs, if the floor as it stands
+    gives it: turning discs on both sides, and the open leaf and the quarter it sweeps
+    (hinged) or the pocket its leaf runs into (sliding); None where it is denied."""
+    if motion == "hinged":
+        return _hinged(st, wall, p1t, p2t, door_id)
+    return _sliding(st, wall, p1t, p2t, door_id)
+
+
+def keep_door(
+    st: FloorState, wall: Wall, t_lo: float, t_hi: float, door_id: str, found: Found
+) -> None:
+    """Keep what a door needs clear from later steps: its discs and straight approaches
+    (no leaf, column or furniture) and its leaf's sweep (no furniture, no other sweep)."""
+    discs, leaf, sweep, _ = found
+    for x, y in discs:
+        st.keep_disc("zone", door_id, x, y, DISC_R)
+    for side in (-1, 1):
+        st.keep_rect("zone", door_id, _strip(wall, t_lo, t_hi, side))
+    if leaf is not None:
+        st.keep_rect("sweep", door_id, sweep)
+
+
+def door_wall(door: DoorSpec) -> tuple[Wall, float, float]:
+    """The wall ``door`` stands in (side B the side its hinged leaf swings into) and where
+    ``p1`` and ``p2`` lie along it."""
+    (x1, y1), (x2, y2) = door.p1, door.p2
+    horizontal = abs(y1 - y2) < 1e-9
+    line, p1t, p2t = (y1, x1, x2) if horizontal else (x1, y1, y2)
+    wall = Wall(horizontal, line, 1)
+    if door.motion == "hinged" and _swing(wall, door.p1, door.p2) != door.swing:
+        wall = Wall(horizontal, line, -1)
+    return wall, p1t, p2t
 
 
 def _strip(wall: Wall, t_lo: float, t_hi: float, side: int) -> Rect:
@@ -207,7 +240,7 @@ def _centred(t_lo: float, t_hi: float) -> list[float]:
     return out
 
 
-def _hinged(st: FloorState, wall: Wall, p1t: float, p2t: float, door_id: str):
+def _hinged(st: FloorState, wall: Wall, p1t: float, p2t: float, door_id: str) -> Found | None:
     """Discs, leaf, sweep for a leaf hinged at ``p1t`` swinging into side B; None if blocked."""
     width = abs(p2t - p1t)
     d = 1.0 if p2t > p1t else -1.0
@@ -230,11 +263,9 @@ def _hinged(st: FloorState, wall: Wall, p1t: float, p2t: float, door_id: str):
     return [disc_a, disc_b], leaf, sweep, None
 
 
-def _sliding(st: FloorState, wall: Wall, p1t: float, p2t: float, door_id: str):
+def _sliding(st: FloorState, wall: Wall, p1t: float, p2t: float, door_id: str) -> Found | None:
     """Discs and pocket for a leaf sliding past ``p2t``; None if blocked."""
-    width = abs(p2t - p1t)
-    d = 1.0 if p2t > p1t else -1.0
-    pocket = wall.rect(p2t, p2t + d * width, -LEAF / 2 - 0.005, LEAF / 2 + 0.005)
+    pocket = door_pocket(wall, p1t, p2t)
     if st.free.any_carved(rect_points(rect(*_shrink_along(pocket)))):
         return None
     t_lo, t_hi = min(p1t, p2t), max(p1t, p2t)
@@ -244,6 +275,12 @@ def _sliding(st: FloorState, wall: Wall, p1t: float, p2t: float, door_id: str):
     if None in discs:
         return None
     return discs, None, None, pocket
+
+
+def door_pocket(wall: Wall, p1t: float, p2t: float) -> Rect:
+    """The wall stretch past ``p2t`` a sliding leaf from ``p1t`` to ``p2t`` runs into."""
+    d = 1.0 if p2t > p1t else -1.0
+    return wall.rect(p2t, p2t + d * abs(p2t - p1t), -LEAF / 2 - 0.005, LEAF / 2 + 0.005)
 
 
 def _shrink_along(r: Rect) -> Rect:

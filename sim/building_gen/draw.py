@@ -93,10 +93,12 @@ def site_dict(plan: BuildingPlan) -> dict:
     return site
 
 
-def write_site(plan: BuildingPlan, folder: Path) -> Path:
-    """Write every floor's map and ``site.yaml`` into ``folder``; returns the site.yaml path."""
+def write_site(plan: BuildingPlan, folder: Path, size: tuple[float, float] | None = None) -> Path:
+    """Write every floor's map and ``site.yaml`` into ``folder``; returns the site.yaml path.
+    ``size``: the maps' extent (default the plan's), so a world drawn from an altered copy
+    of a plan lies on the same grid as the map of the plan."""
     folder.mkdir(parents=True, exist_ok=True)
-    size = extent(plan)
+    size = size or extent(plan)
     for floor in plan.floors:
         write_map(occupancy(floor, size), folder, f"floor{floor.name}", RES, (0.0, 0.0, 0.0))
     path = folder / "site.yaml"

@@ -51,6 +51,14 @@ def overlaps(a: Rect, b: Rect) -> bool:
     return a[0] < b[2] - EPS and b[0] < a[2] - EPS and a[1] < b[3] - EPS and b[1] < a[3] - EPS
 
 
+def on_boundary(p: tuple[float, float], r: Rect) -> bool:
+    """Whether ``p`` lies on the edge of ``r`` (a door in a space's wall)."""
+    x, y = p
+    inside = r[0] - 1e-6 <= x <= r[2] + 1e-6 and r[1] - 1e-6 <= y <= r[3] + 1e-6
+    edge = min(abs(x - r[0]), abs(x - r[2]), abs(y - r[1]), abs(y - r[3])) < 1e-6
+    return inside and edge
+
+
 def rect_gap(a: Rect, b: Rect) -> float:
     """Euclidean distance between two rectangles (0 when they touch or overlap)."""
     dx = max(0.0, a[0] - b[2], b[0] - a[2])

@@ -22,7 +22,7 @@ import numpy as np
 
 from sim.building_gen.doors import DISC_R, Wall, place_door, vestibule_depth_m
 from sim.building_gen.furnish import add_columns, furnish, place_at, place_in
-from sim.building_gen.geometry import HALF, RES, Rect, pick, rect
+from sim.building_gen.geometry import HALF, RES, Rect, on_boundary, pick, rect
 from sim.building_gen.lobby import Lobby
 from sim.building_gen.options import GenOptions
 from sim.building_gen.plan import DoorSpec, FloorPlan, Point, Space
@@ -453,8 +453,10 @@ class FloorBuilder:
         """A 2-4 m wide opening between the corridor and a hall (no door)."""
         width = pick(self.rng, 2.0, min(4.0, hi - lo), 0.1)
         o0 = pick(self.rng, lo, hi - width, RES)
-        if not self.st.carve(f.rect(o0, o0 + width, -HALF, r + HALF)):
+        opening = f.rect(o0, o0 + width, -HALF, r + HALF)
+        if not self.st.carve(opening):
             return False
+        self.st.plan.openings.append(opening)
         self.st.keep_rect("zone", "opening", f.rect(o0, o0 + width, -HALF - 1.2, -HALF))
         self.st.keep_rect("zone", "opening", f.rect(o0, o0 + width, r + HALF, r + HALF + 1.2))
         return True
@@ -468,7 +470,7 @@ class FloorBuilder:
         for space in list(st.plan.spaces):
             if space.kind not in ("room", "inner", "hall") or space.carve is None:
                 continue
-            anchors = [d.centre for d in st.plan.doors if _on_boundary(d.centre, space.rect)]
+            anchors = [d.centre for d in st.plan.doors if on_boundary(d.centre, space.rect)]
             if not anchors:
                 x0, y0, x1, y1 = space.carve
                 anchors = [((x0 + x1) / 2, (y0 + y1) / 2)]
@@ -478,10 +480,3 @@ class FloorBuilder:
                 else int(self.rng.integers(0, 3))
             )
             furnish(st, space, anchors, count)
-
-
-def _on_boundary(p: Point, r: Rect) -> bool:
-    x, y = p
-    inside = r[0] - 1e-6 <= x <= r[2] + 1e-6 and r[1] - 1e-6 <= y <= r[3] + 1e-6
-    edge = min(abs(x - r[0]), abs(x - r[2]), abs(y - r[1]), abs(y - r[3])) < 1e-6
-    return inside and edge

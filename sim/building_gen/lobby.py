@@ -69,13 +69,19 @@ class Lobby:
                 lift.interior() if serves else None,
             )
             st.add_space(shaft)
-            st.pockets.extend(_pockets(lift))
-            if not serves:
-                continue
-            st.carve(_door_gap(lift))
-            (x, y), strip = _landing(lift)
-            st.keep_disc("zone", lift.id, x, y, DISC_R)
-            st.keep_rect("zone", lift.id, strip)
+            if serves:
+                st.carve(_door_gap(lift))
+            keep_lift(st, lift, serves)
+
+
+def keep_lift(st: FloorState, lift: LiftSpec, serves: bool) -> None:
+    """Keep the shaft wall solid where the car's leaf runs and, on a floor the lift
+    serves, its landing's turning disc and straight approach clear of later steps."""
+    st.pockets.extend(_pockets(lift))
+    if serves:
+        (x, y), strip = _landing(lift)
+        st.keep_disc("zone", lift.id, x, y, DISC_R)
+        st.keep_rect("zone", lift.id, strip)
 
 
 def _door_gap(lift: LiftSpec) -> Rect:

@@ -59,13 +59,15 @@ class MissionSpec:
     lifts: dict[str, dict] = field(default_factory=dict)
     navigator: dict[str, float] = field(default_factory=dict)
 
-    def scenario(self, site: str) -> dict:
-        """The scenario YAML content, with ``site`` relative to the scenario's folder."""
+    def scenario(self, site: str, world_site: str | None = None) -> dict:
+        """The scenario YAML content, with ``site`` (and ``world_site``, the world the
+        simulator builds where it differs from the map) relative to the scenario's folder."""
         data: dict = {
             "name": self.name,
             "description": self.description,
             "kind": self.kind,
             "site": site,
+            **({"world_site": world_site} if world_site else {}),
             "seed": self.seed,
             "time_limit_s": self.time_limit_s,
             "start": self.start,
@@ -322,14 +324,17 @@ class MissionPlanner:
         return None
 
 
-def write_missions(missions: list[MissionSpec], folder: Path, site: str = "..") -> list[Path]:
-    """One scenario YAML per mission in ``folder`` (stale ones removed); their paths."""
+def write_missions(
+    missions: list[MissionSpec], folder: Path, site: str = "..", world_site: str | None = None
+) -> list[Path]:
+    """One scenario YAML per mission in ``folder`` (stale ones removed); their paths.
+    ``world_site``: the world the simulator builds instead of ``site``, if it differs."""
     folder.mkdir(parents=True, exist_ok=True)
     for old in sorted(folder.glob("*.yaml")):
         old.unlink()
     paths = []
     for i, m in enumerate(missions):
         path = folder / f"m{i:02d}_{m.kind}.yaml"
-        path.write_text(yaml.safe_dump(m.scenario(site), sort_keys=False, width=100))
+        path.write_text(yaml.safe_dump(m.scenario(site, world_site), sort_keys=False, width=100))
         paths.append(path)
     return paths

@@ -22,7 +22,9 @@ class GenOptions:
     The defaults draw the buildings a campaign should see: 1-3 floors, corridors 1.2-3.0 m
     wide, halls up to 30 m a side, suites with doors in series and 2-4 lifts when there is
     more than one floor. ``mission_kinds`` (kind -> count) replaces the default mix of
-    ``missions`` missions.
+    ``missions`` missions. ``world_differs`` also draws the world the simulator builds
+    apart from the map the stack is given (:mod:`sim.building_gen.world`: doors moved,
+    furniture added and removed, a partition moved); off, nothing is drawn as before.
     """
 
     floors: tuple[int, int] = (1, 3)
@@ -43,6 +45,7 @@ class GenOptions:
     # the least free depth between two doors in series, plus a hinged leaf swinging into
     # it (ADA 404.2.6); 0 draws them as before that rule (campaign b2010.m00's 1.6 m)
     vestibule_m: float = 1.22
+    world_differs: bool = False
 
     def check(self) -> None:
         """Raise ValueError for options the generator cannot honour."""

@@ -123,6 +123,7 @@ class FloorPlan:
     places: list[PlaceSpec] = field(default_factory=list)
     corridor_widths: list[float] = field(default_factory=list)
     series: list[tuple[str, str, float]] = field(default_factory=list)  # outer, inner, gap
+    openings: list[Rect] = field(default_factory=list)  # doorless corridor-hall passages
 
     @property
     def corridor_area(self) -> str:
@@ -181,6 +182,7 @@ class BuildingPlan:
             f.carves = [rc(r) for r in f.carves]
             f.columns = [rc(r) for r in f.columns]
             f.furniture = [rc(r) for r in f.furniture]
+            f.openings = [rc(r) for r in f.openings]
             for d in f.doors:
                 d.p1, d.p2 = pt(d.p1), pt(d.p2)
                 d.leaf = rc(d.leaf) if d.leaf else None

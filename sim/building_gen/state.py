@@ -65,6 +65,7 @@ class FloorState:
             p.furniture,
             p.places,
             p.series,
+            p.openings,
             self.free.carves,
             self.free.obstacles,
             self.keepouts,

@@ -222,50 +222,61 @@ def test_options_are_honoured(tmp_path: Path) -> None:
 # ---- geometry ------------------------------------------------------------------------
 
 
+def check_turning_discs(label: str, folder: Path, site: Site) -> None:
+    """Every door of the site in ``folder``: a free turning disc and a straight approach
+    on both sides, no other open leaf in front of it."""
+    raw = _raw_doors(folder)
+    for floor in site.floors:
+        occ, res = _occ(site, floor), site.floor(floor).map.resolution
+        leaves = _leaves(site, raw, floor)
+        for d in (d for d in site.doors if d.floor == floor):
+            assert 0.8 - 1e-6 <= d.width_m <= 1.2 + 1e-6, (label, d.id)
+            u, left, width = _frame(d)
+            for side in (-1, 1):
+                ok = _door_side_ok(occ, res, d, side, leaves)
+                assert ok, f"{label}: {d.id} side {side} has no turning disc"
+                p1, p2 = np.array(d.p1), np.array(d.p2)
+                n = left * side
+                strip = _rect_of([p1 + n * 0.1, p2 + n * 0.1, p1 + n * 1.3, p2 + n * 1.3])
+                assert _strip_cells_free(occ, res, strip), f"{label}: {d.id} {side}"
+                for k, leaf in leaves.items():
+                    if k != d.id:
+                        inter = (
+                            min(strip[2], leaf[2]) - max(strip[0], leaf[0]) > 1e-6
+                            and min(strip[3], leaf[3]) - max(strip[1], leaf[1]) > 1e-6
+                        )
+                        assert not inter, f"{label}: leaf of {k} in front of {d.id}"
+
+
+def check_gaps(label: str, folder: Path, site: Site) -> None:
+    """Every door stands in a free gap between solid jambs; sliding leaves' pockets are wall."""
+    raw = _raw_doors(folder)
+    for d in site.doors:
+        grid = site.floor(d.floor).map
+        occ = grid.occupied()
+        u, left, width = _frame(d)
+        mid = (np.array(d.p1) + np.array(d.p2)) / 2
+        for t in (-0.09, 0.0, 0.09):  # through the wall, the gap is free
+            r, c = grid.to_cell(*(mid + left * t))
+            assert not occ[r, c], (label, d.id)
+        for p in (np.array(d.p1) - u * 0.03, np.array(d.p2) + u * 0.03):
+            r, c = grid.to_cell(*p)  # the jambs are wall
+            assert occ[r, c], (label, d.id)
+        if raw[d.id]["motion"] == "sliding":
+            p2 = np.array(d.p2)
+            for s in np.arange(0.05, width - 0.025, 0.05):
+                r, c = grid.to_cell(*(p2 + u * s))
+                assert occ[r, c], f"{label}: {d.id}'s pocket is not solid wall"
+
+
 def test_every_door_has_turning_discs_and_straight_approaches(built) -> None:
     for b, site in built:
-        raw = _raw_doors(b.site_path)
-        for floor in site.floors:
-            occ, res = _occ(site, floor), site.floor(floor).map.resolution
-            leaves = _leaves(site, raw, floor)
-            for d in (d for d in site.doors if d.floor == floor):
-                assert 0.8 - 1e-6 <= d.width_m <= 1.2 + 1e-6, (b.seed, d.id)
-                u, left, width = _frame(d)
-                for side in (-1, 1):
-                    ok = _door_side_ok(occ, res, d, side, leaves)
-                    assert ok, f"seed {b.seed}: {d.id} side {side} has no turning disc"
-                    p1, p2 = np.array(d.p1), np.array(d.p2)
-                    n = left * side
-                    strip = _rect_of([p1 + n * 0.1, p2 + n * 0.1, p1 + n * 1.3, p2 + n * 1.3])
-                    assert _strip_cells_free(occ, res, strip), f"seed {b.seed}: {d.id} {side}"
-                    for k, leaf in leaves.items():
-                        if k != d.id:
-                            inter = (
-                                min(strip[2], leaf[2]) - max(strip[0], leaf[0]) > 1e-6
-                                and min(strip[3], leaf[3]) - max(strip[1], leaf[1]) > 1e-6
-                            )
-                            assert not inter, f"seed {b.seed}: leaf of {k} in front of {d.id}"
+        check_turning_discs(f"seed {b.seed}", b.site_path, site)
 
 
 def test_doors_sit_in_their_gaps_with_solid_pockets(built) -> None:
     for b, site in built:
-        raw = _raw_doors(b.site_path)
-        for d in site.doors:
-            grid = site.floor(d.floor).map
-            occ = grid.occupied()
-            u, left, width = _frame(d)
-            mid = (np.array(d.p1) + np.array(d.p2)) / 2
-            for t in (-0.09, 0.0, 0.09):  # through the wall, the gap is free
-                r, c = grid.to_cell(*(mid + left * t))
-                assert not occ[r, c], (b.seed, d.id)
-            for p in (np.array(d.p1) - u * 0.03, np.array(d.p2) + u * 0.03):
-                r, c = grid.to_cell(*p)  # the jambs are wall
-                assert occ[r, c], (b.seed, d.id)
-            if raw[d.id]["motion"] == "sliding":
-                p2 = np.array(d.p2)
-                for s in np.arange(0.05, width - 0.025, 0.05):
-                    r, c = grid.to_cell(*(p2 + u * s))
-                    assert occ[r, c], f"seed {b.seed}: {d.id}'s pocket is not solid wall"
+        check_gaps(f"seed {b.seed}", b.site_path, site)
 
 
 def test_leaves_swing_into_rooms_and_every_room_has_a_place(built) -> None:
@@ -295,15 +306,20 @@ def test_leaves_swing_into_rooms_and_every_room_has_a_place(built) -> None:
     assert {("powered", "hinged", True), ("powered", "sliding", True)} <= kinds
 
 
+def check_places(label: str, folder: Path, site: Site) -> None:
+    """Every place has its clearance from walls, furniture and open leaves."""
+    raw = _raw_doors(folder)
+    for p in site.places.values():
+        grid = site.floor(p.floor).map
+        clear = _clearance(grid.occupied(), grid.resolution, p.x, p.y, 1.0)
+        assert clear >= PLACE_CLEARANCE, f"{label}: {p.name} only {clear:.2f} m clear"
+        for leaf in _leaves(site, raw, p.floor).values():
+            assert _rect_dist(p.x, p.y, leaf) >= PLACE_CLEARANCE, (label, p.name)
+
+
 def test_places_are_clear(built) -> None:
     for b, site in built:
-        raw = _raw_doors(b.site_path)
-        for p in site.places.values():
-            grid = site.floor(p.floor).map
-            clear = _clearance(grid.occupied(), grid.resolution, p.x, p.y, 1.0)
-            assert clear >= PLACE_CLEARANCE, f"seed {b.seed}: {p.name} only {clear:.2f} m clear"
-            for leaf in _leaves(site, raw, p.floor).values():
-                assert _rect_dist(p.x, p.y, leaf) >= PLACE_CLEARANCE, (b.seed, p.name)
+        check_places(f"seed {b.seed}", b.site_path, site)
 
 
 def test_sizes_across_seeds(built) -> None:
@@ -335,24 +351,29 @@ def test_doors_in_series_leave_room_beside_the_leaf(built) -> None:
     assert seen == {"hinged", "sliding"}
 
 
-def test_lifts_open_onto_free_space(built) -> None:
+def check_lifts(label: str, site: Site) -> None:
+    """Every lift car door opens onto a turning disc and a straight 2 m; the car is free."""
     fp = Footprint()
+    if len(site.floors) > 1:
+        assert len(site.elevators) >= 2, label
+    for lift in site.elevators:
+        for f in lift.floors:
+            grid = site.floor(f).map
+            occ, res = grid.occupied(), grid.resolution
+            cx, cy = lift.door_centre(f)
+            nx, ny = lift.door_normal(f)
+            disc = (cx + nx * 0.85, cy + ny * 0.85)
+            assert _clearance(occ, res, *disc, 0.8) >= DISC_R, (label, lift.id, f)
+            for s in np.arange(0.15, 2.1, 0.05):
+                r, c = grid.to_cell(cx + nx * s, cy + ny * s)
+                assert not occ[r, c], (label, lift.id, f)
+            inside = _clearance(occ, res, lift.x, lift.y, 1.0)
+            assert inside >= fp.width / 2, (label, lift.id, f)
+
+
+def test_lifts_open_onto_free_space(built) -> None:
     for b, site in built:
-        if len(site.floors) > 1:
-            assert len(site.elevators) >= 2, b.seed
-        for lift in site.elevators:
-            for f in lift.floors:
-                grid = site.floor(f).map
-                occ, res = grid.occupied(), grid.resolution
-                cx, cy = lift.door_centre(f)
-                nx, ny = lift.door_normal(f)
-                disc = (cx + nx * 0.85, cy + ny * 0.85)
-                assert _clearance(occ, res, *disc, 0.8) >= DISC_R, (b.seed, lift.id, f)
-                for s in np.arange(0.15, 2.1, 0.05):
-                    r, c = grid.to_cell(cx + nx * s, cy + ny * s)
-                    assert not occ[r, c], (b.seed, lift.id, f)
-                inside = _clearance(occ, res, lift.x, lift.y, 1.0)
-                assert inside >= fp.width / 2, (b.seed, lift.id, f)
+        check_lifts(f"seed {b.seed}", site)
 
 
 # ---- missions ------------------------------------------------------------------------
@@ -388,20 +409,28 @@ def test_scenarios_load(built) -> None:
             assert scenario.time_limit_s == data["time_limit_s"]
 
 
+def check_outcomes(label: str, scenarios: list[Path], site: Site) -> set[tuple[str, str]]:
+    """Each mission's expected outcome is whether the chair fits from its start to its goal
+    on ``site`` with its stuck doors shut and its faulty lifts out; the (kind, expect) seen."""
+    kinds = set()
+    cache: dict = {}
+    for path in scenarios:
+        data = yaml.safe_load(path.read_text())
+        kinds.add((data["kind"], data["expect"]))
+        building = (data.get("config") or {}).get("building", {})
+        stuck = set(building.get("doors", {}))
+        dead = set(building.get("lifts", {}))
+        s, g = data["start"], site.places[data["goal"]["place"]]
+        here, there = (s["x"], s["y"], s["floor"]), (g.x, g.y, g.floor)
+        ok = _connected(site, here, there, stuck, dead, cache)
+        assert ok == (data["expect"] == "success"), f"{label}: {path.name}"
+    return kinds
+
+
 def test_expected_outcomes_match_the_maps(built) -> None:
     kinds = set()
     for b, site in built:
-        cache: dict = {}
-        for path in b.scenarios:
-            data = yaml.safe_load(path.read_text())
-            kinds.add((data["kind"], data["expect"]))
-            building = (data.get("config") or {}).get("building", {})
-            stuck = set(building.get("doors", {}))
-            dead = set(building.get("lifts", {}))
-            s, g = data["start"], site.places[data["goal"]["place"]]
-            here, there = (s["x"], s["y"], s["floor"]), (g.x, g.y, g.floor)
-            ok = _connected(site, here, there, stuck, dead, cache)
-            assert ok == (data["expect"] == "success"), f"seed {b.seed}: {path.name}"
+        kinds |= check_outcomes(f"seed {b.seed}", b.scenarios, site)
     for kind in ("same_floor", "cross_floor", "door_stuck_alt", "lift_out_of_service", "lift_busy"):
         assert (kind, "success") in kinds
     assert ("door_stuck_no_way", "failure") in kinds

@@ -1,0 +1,216 @@
+"""The world a generated building's simulator builds apart from its map (issue 15, item 2).
+
+With ``GenOptions.world_differs`` the world (``world/``) differs from the map exactly as
+generated.yaml records it (doors moved along their wall by at most 0.20 m, furniture added
+and removed, one partition moved), keeps every promise the map keeps (checked on the
+written files as tests/sim/test_building_gen.py checks maps), and the missions name it as
+their ``world_site``. Without the option a building is drawn byte for byte as before.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from shared.site import Site, load_site
+from sim.building_gen import GeneratedBuilding, GenOptions, generate_building
+from tests.sim.test_building_gen import (
+    _files,
+    check_gaps,
+    check_lifts,
+    check_outcomes,
+    check_places,
+    check_turning_discs,
+)
+from wheelnav.mission.scenario import load_scenario
+
+WORLD_SEEDS = range(10)
+MAX_SHIFT_M = 0.20
+# every file of building 7 as drawn before the option existed (commit 73da6bf); a change
+# that redraws buildings on purpose updates it
+SEED7_DIGEST = "d6af5346db439771c5a73e7102dd9751e07ad7030b309f6d43945afd511fece8"
+
+World = tuple[GeneratedBuilding, Site, Site, dict]
+
+
+@pytest.fixture(scope="module")
+def worlds(tmp_path_factory) -> list[World]:
+    """Buildings drawn with their world: (building, map site, world site, generated.yaml)."""
+    root = tmp_path_factory.mktemp("worlds")
+    out = []
+    for seed in WORLD_SEEDS:
+        b = generate_building(seed, root / f"b{seed}", GenOptions(world_differs=True))
+        record = yaml.safe_load((b.site_path / "generated.yaml").read_text())
+        out.append((b, load_site(b.site_path), load_site(b.world_path), record))
+    return out
+
+
+# ---- helpers -------------------------------------------------------------------------
+
+
+def _digest(files: dict[str, bytes]) -> str:
+    h = hashlib.sha256()
+    for name, data in sorted(files.items()):
+        h.update(name.encode() + b"\0" + data)
+    return h.hexdigest()
+
+
+def _cells(r: list[float], res: float) -> tuple[slice, slice]:
+    """The grid cells a rectangle on the grid covers (as sim.sitegen.draw fills them)."""
+    return slice(round(r[1] / res), round(r[3] / res)), slice(round(r[0] / res), round(r[2] / res))
+
+
+def _gap(door: dict) -> list[float]:
+    """A door's opening through the 0.2 m wall, from its segment."""
+    (x1, y1), (x2, y2) = door["p1"], door["p2"]
+    if abs(y1 - y2) < 1e-9:
+        return [min(x1, x2), y1 - 0.1, max(x1, x2), y1 + 0.1]
+    return [x1 - 0.1, min(y1, y2), x1 + 0.1, max(y1, y2)]
+
+
+def _site_yaml(folder: Path) -> dict:
+    return yaml.safe_load((folder / "site.yaml").read_text())
+
+
+def _without_world(data: dict) -> dict:
+    """generated.yaml as the option off would write it."""
+    data = {k: v for k, v in data.items() if k != "world"}
+    data["options"] = {k: v for k, v in data["options"].items() if k != "world_differs"}
+    data["geometry"] = {k: v for k, v in data["geometry"].items() if k != "world"}
+    return data
+
+
+def _check_doors_moved(label: str, map_raw: dict, world_raw: dict, moved: dict) -> None:
+    """Same doors; the recorded ones moved along p1 -> p2 by their offset (<= 0.20 m, on
+    the 5 cm grid), every other key and every other door as the map has it."""
+    assert [d["id"] for d in map_raw["doors"]] == [d["id"] for d in world_raw["doors"]], label
+    for old, new in zip(map_raw["doors"], world_raw["doors"], strict=True):
+        offset = moved.get(old["id"], 0.0)
+        assert abs(offset) <= MAX_SHIFT_M + 1e-9, (label, old["id"], offset)
+        assert abs(offset / 0.05 - round(offset / 0.05)) < 1e-6, (label, old["id"], offset)
+        u = np.subtract(old["p2"], old["p1"]) / math.dist(old["p1"], old["p2"])
+        for key in ("p1", "p2"):
+            assert np.allclose(np.add(old[key], u * offset), new[key], atol=1e-6), (label, key)
+        rest = {k: v for k, v in old.items() if k not in ("p1", "p2")}
+        assert rest == {k: v for k, v in new.items() if k not in ("p1", "p2")}, label
+
+
+def _mask(shape: tuple[int, int], rects: list[list[float]], res: float) -> np.ndarray:
+    out = np.zeros(shape, dtype=bool)
+    for r in rects:
+        out[_cells(r, res)] = True
+    return out
+
+
+def _on(changes: list[dict], floor: str, field: str) -> list:
+    """``field`` of the recorded changes on ``floor``."""
+    return [c[field] for c in changes if c["floor"] == floor]
+
+
+def _check_rasters(label: str, world: dict, plan: Site, real: Site, raw: tuple[dict, dict]) -> None:
+    """Every cell that differs between a map and its world lies in a recorded change, and
+    every recorded change shows: furniture, the moved wall's strips, the doors' openings."""
+    gaps = [{d["id"]: _gap(d) for d in site["doors"]} for site in raw]
+    for floor in plan.floors:
+        occ_map, occ_world = plan.floor(floor).map.occupied(), real.floor(floor).map.occupied()
+        shape, res = occ_map.shape, plan.floor(floor).map.resolution
+        added = _mask(shape, _on(world["furniture_added"], floor, "rect"), res)
+        removed = _mask(shape, _on(world["furniture_removed"], floor, "rect"), res)
+        freed = _mask(shape, _on(world["walls_moved"], floor, "freed"), res)
+        walled = _mask(shape, _on(world["walls_moved"], floor, "walled"), res)
+        moved = _on(world["doors_moved"], floor, "id")
+        old_gaps = _mask(shape, [gaps[0][d] for d in moved], res)
+        new_gaps = _mask(shape, [gaps[1][d] for d in moved], res)
+        assert occ_world[added].all() and not (occ_map & added & ~removed).any(), label
+        assert occ_map[removed].all() and not (occ_world & removed & ~added).any(), label
+        assert occ_map[freed].all() and not occ_world[freed].any(), label
+        assert occ_world[walled].all() and not occ_map[walled].any(), label
+        assert not occ_map[old_gaps].any() and not occ_world[new_gaps].any(), label
+        explained = added | removed | freed | walled | old_gaps | new_gaps
+        differs = occ_map != occ_world
+        assert not (differs & ~explained).any(), f"{label}: floor {floor} differs unrecorded"
+
+
+# ---- without the option --------------------------------------------------------------
+
+
+def test_without_the_option_a_building_is_drawn_as_before(tmp_path: Path) -> None:
+    files = _files(generate_building(7, tmp_path / "b7").site_path)
+    assert _digest(files) == SEED7_DIGEST
+    assert not any(name.startswith("world") for name in files)
+    assert b"world" not in files["generated.yaml"]
+
+
+def test_the_option_adds_a_world_and_changes_nothing_else(worlds, tmp_path: Path) -> None:
+    b, _, _, record = worlds[0]
+    plain = generate_building(b.seed, tmp_path / "plain")
+    on, off = _files(b.site_path), _files(plain.site_path)
+    assert {k for k in on if not k.startswith("world/")} == set(off)
+    assert all(on[k] == off[k] for k in off if not k.startswith(("missions/", "generated")))
+    for name in (k for k in off if k.startswith("missions/")):
+        data = yaml.safe_load(on[name])
+        assert data.pop("world_site") == "../world"
+        assert data == yaml.safe_load(off[name]), name
+    assert _without_world(record) == yaml.safe_load(off["generated.yaml"])
+    assert record["options"]["world_differs"] is True
+
+
+# ---- the world -----------------------------------------------------------------------
+
+
+def test_the_world_differs_from_the_map_as_recorded(worlds) -> None:
+    walls = removed = 0
+    for b, site, real, record in worlds:
+        label = f"seed {b.seed}"
+        world = record["world"]
+        assert world["site"] == "world" and b.world_path == b.site_path / "world"
+        map_raw, world_raw = _site_yaml(b.site_path), _site_yaml(b.world_path)
+        for key in ("name", "floors", "places", "elevators"):
+            assert map_raw.get(key) == world_raw.get(key), (label, key)
+        moved = {d["id"]: d["offset_m"] for d in world["doors_moved"]}
+        assert moved and all(moved.values()), label
+        _check_doors_moved(label, map_raw, world_raw, moved)
+        _check_rasters(label, world, site, real, (map_raw, world_raw))
+        assert world["furniture_added"], label
+        for w in world["walls_moved"]:
+            assert 0 < w["shift_m"] <= MAX_SHIFT_M + 1e-9 and w["length_m"] >= 1.0, (label, w)
+        sizes = record["geometry"]["world"]
+        assert sizes["doors_moved_m"] == [abs(v) for v in moved.values()], label
+        assert sizes["walls_moved_m"] == [w["shift_m"] for w in world["walls_moved"]], label
+        assert len(sizes["furniture_added_m2"]) == len(world["furniture_added"]), label
+        assert len(world["walls_moved"]) <= 1, label
+        walls += len(world["walls_moved"])
+        removed += len(world["furniture_removed"])
+    assert walls >= len(worlds) - 1 and removed > 0
+
+
+def test_the_world_keeps_the_promises_of_the_map(worlds) -> None:
+    """Turning discs and straight approaches at every door, solid jambs and pockets, clear
+    places and landings, and every mission's expected outcome, on the world's files."""
+    for b, _, world, _ in worlds:
+        label = f"seed {b.seed} (world)"
+        check_turning_discs(label, b.world_path, world)
+        check_gaps(label, b.world_path, world)
+        check_places(label, b.world_path, world)
+        check_lifts(label, world)
+        check_outcomes(label, b.scenarios, world)
+
+
+def test_missions_load_with_their_world(worlds) -> None:
+    """The scenario loader gives the stack the map and the simulator the world."""
+    for b, site, _, _ in worlds[:3]:
+        for path in b.scenarios:
+            data = yaml.safe_load(path.read_text())
+            assert data["world_site"] == "../world"
+            scenario = load_scenario(path)
+            assert scenario.kind == data["kind"] and scenario.expect == data["expect"]
+            assert Path(scenario.config.site) == b.site_path.resolve()
+            assert Path(scenario.config.sim.world_site) == b.world_path.resolve()
+            world = load_site(scenario.config.sim.world_site)
+            assert [d.id for d in world.doors] == [d.id for d in site.doors]
+            assert scenario.place in world.places
