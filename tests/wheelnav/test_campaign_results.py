@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import argparse
+import io
 from pathlib import Path
+
+import yaml
 
 from shared.config import FleetConfig
 from wheelnav.campaign.results import ResultStore, door_requirement_m, judge
+from wheelnav.campaign.runner import CampaignSpec, add_commands, generate
 from wheelnav.campaign.summary import (
     figures,
     format_failures,
     format_figures,
+    format_geometry,
     format_table,
     format_tight,
 )
@@ -140,3 +146,37 @@ def test_a_doorway_passed_is_judged_on_its_centring_and_on_its_outline_time() ->
     narrow = {**door, "width_m": 0.8, "min_clearance_m": 0.06, "outline_clearance_m": 0.047}
     row = judge(scenario(), report(True, door_clearance=[narrow]))
     assert row["door_clearance"][0]["outline_required_m"] == 0.045 and row["clearance_ok"]
+
+
+def test_the_geometry_says_what_differed_between_world_and_map() -> None:
+    plain = {"floors": 1, "door_widths_m": [0.9], "lift_headings_deg": []}
+    world = {
+        "doors_moved_m": [0.05, 0.2, 0.2],
+        "furniture_added_m2": [0.5, 1.0],
+        "furniture_removed_m2": [0.25],
+        "walls_moved_m": [0.15],
+        "walls_moved_length_m": [3.5],
+    }
+    text = format_geometry([plain, {**plain, "world": world}])
+    assert "world differs from the map (1 of 2 buildings)" in text
+    assert "doors moved along their wall (3)" in text
+    assert "0.20 m    2 ##" in text and "0.05 m    1 #" in text
+    assert "furniture the map lacks: 2 (1.5 m2); mapped, not there: 1 (0.2 m2)" in text
+    assert "walls moved: 1 (3.5 m of wall; by 0.15 m: 1)" in text
+    assert "world" not in format_geometry([plain])
+
+
+def test_world_differs_draws_buildings_of_their_own_whose_missions_name_the_world(
+    tmp_path: Path,
+) -> None:
+    parser = argparse.ArgumentParser()
+    add_commands(parser.add_subparsers())
+    assert parser.parse_args(["campaign", "--world-differs"]).world_differs
+    assert not parser.parse_args(["campaign"]).world_differs
+    spec = CampaignSpec(tmp_path, buildings=1, seed=5, missions=2, world_differs=True)
+    (building,) = generate(spec, io.StringIO())
+    assert building["folder"] == tmp_path / "buildings" / "b5w"
+    assert (building["folder"] / "world" / "site.yaml").is_file()
+    assert "world" in building["built"].geometry
+    for path in building["built"].scenarios:
+        assert yaml.safe_load(path.read_text())["world_site"] == "../world"

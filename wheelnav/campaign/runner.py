@@ -4,7 +4,10 @@ Each building is drawn by :mod:`sim.building_gen` from its seed (the campaign's 
 its index), into ``OUT/buildings/b<seed>/`` with its missions as scenario files; each
 mission runs as ``wheelnav mission`` would run it, and its row is stored the moment it
 ends, so a stopped campaign resumes where it stopped. The expected outcome of every
-mission comes from how its building was built, never from a run.
+mission comes from how its building was built, never from a run. With ``world_differs``
+the simulator builds a world that differs from the map the stack is given (doors moved,
+furniture added and removed, a wall moved); those buildings go into ``b<seed>w/``, so
+their rows never mix with those of the same seed's building drawn without it.
 """
 
 from __future__ import annotations
@@ -40,6 +43,12 @@ class CampaignSpec:
     missions: int = 8
     floors_max: int = 3
     only: tuple[str, ...] = ()  # mission ids (or prefixes) to run; empty: all
+    world_differs: bool = False  # the simulator's world differs from the stack's map
+
+
+def building_folder(spec: CampaignSpec, seed: int) -> Path:
+    """Where building ``seed`` is drawn: ``b<seed>``, or ``b<seed>w`` with its world."""
+    return spec.out / "buildings" / f"b{seed}{'w' if spec.world_differs else ''}"
 
 
 def mission_id(building: Path, scenario: Path) -> str:
@@ -54,13 +63,18 @@ def generate(spec: CampaignSpec, err: TextIO = sys.stderr) -> list[dict[str, Any
     buildings = []
     for i in range(spec.buildings):
         seed = spec.seed + i
-        folder = spec.out / "buildings" / f"b{seed}"
-        options = GenOptions(missions=spec.missions, floors=(1, spec.floors_max))
+        folder = building_folder(spec, seed)
+        options = GenOptions(
+            missions=spec.missions,
+            floors=(1, spec.floors_max),
+            world_differs=spec.world_differs,
+        )
         built = generate_building(seed, folder, options)
+        world = f"; {built.world.summary()}" if built.world is not None else ""
         err.write(
-            f"building b{seed}: {built.geometry.get('floors', 1)} floor(s), "
+            f"building {folder.name}: {built.geometry.get('floors', 1)} floor(s), "
             f"{len(built.geometry.get('door_widths_m', []))} doors, "
-            f"{len(built.scenarios)} missions\n"
+            f"{len(built.scenarios)} missions{world}\n"
         )
         buildings.append({"seed": seed, "folder": folder, "built": built})
     return buildings
@@ -110,6 +124,7 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
             "seed": spec.seed,
             "missions_per_building": spec.missions,
             "floors_max": spec.floors_max,
+            "world_differs": spec.world_differs,
         },
         "figures": figures(rows, len(todo)),
         "rows": rows,
@@ -143,6 +158,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--fresh", action="store_true", help="forget stored rows of these missions first"
     )
+    p.add_argument(
+        "--world-differs",
+        action="store_true",
+        help="the simulator's world differs from the map: doors moved up to 0.20 m, "
+        "furniture added and removed, a wall moved (buildings b<seed>w)",
+    )
     p.set_defaults(run=_cli)
 
 
@@ -157,6 +178,7 @@ def _cli(args: argparse.Namespace) -> int:
         args.missions,
         args.floors_max,
         tuple(args.only),
+        args.world_differs,
     )
     if args.fresh:
         for path in (spec.out / "results").glob("*.json"):

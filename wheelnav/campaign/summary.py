@@ -161,7 +161,38 @@ def format_geometry(geometry: list[dict[str, Any]]) -> str:
     lines.append(f"  lift headings deg: {turns}")
     per = ", ".join(f"{k}: {v}" for k, v in sorted(floors.items()))
     lines.append(f"  floors per building: {per}")
-    return "\n".join(lines)
+    return "\n".join(lines + format_world(geometry))
+
+
+def format_world(geometry: list[dict[str, Any]]) -> list[str]:
+    """What the simulator's world had that the stack's map had not (``--world-differs``):
+    doors moved (how far), furniture added and removed, walls moved; nothing if none."""
+    worlds = [g["world"] for g in geometry if "world" in g]
+    if not worlds:
+        return []
+
+    def values(key: str) -> list[float]:
+        return [v for w in worlds for v in w.get(key, [])]
+
+    doors = Counter(round(v, 2) for v in values("doors_moved_m"))
+    added, removed = values("furniture_added_m2"), values("furniture_removed_m2")
+    shifts, lengths = values("walls_moved_m"), values("walls_moved_length_m")
+    lines = [
+        f"  world differs from the map ({len(worlds)} of {len(geometry)} buildings):",
+        f"    doors moved along their wall ({sum(doors.values())}):",
+    ]
+    for offset, n in sorted(doors.items()):
+        lines.append(f"    {f'{offset:.2f} m':>12s} {n:4d} {'#' * min(n, 60)}")
+    lines.append(
+        f"    furniture the map lacks: {len(added)} ({sum(added):.1f} m2); "
+        f"mapped, not there: {len(removed)} ({sum(removed):.1f} m2)"
+    )
+    by = Counter(round(v, 2) for v in shifts)
+    moved = ", ".join(f"{v:.2f} m: {n}" for v, n in sorted(by.items()))
+    lines.append(
+        f"    walls moved: {len(shifts)} ({sum(lengths):.1f} m of wall; by {moved or '-'})"
+    )
+    return lines
 
 
 def _num(value, fmt: str) -> str:
