@@ -201,9 +201,7 @@ class MapLocaliser:
             return False
         if len(points) > s.max_points:
             points = points[np.linspace(0, len(points) - 1, s.max_points).astype(int)]
-        if s.relocalise and self.lost:
-            return self._while_lost(points)
-        if s.relocalise and self.blind_m >= s.reacquire_after_m:
+        if s.relocalise and not self.lost and self.blind_m >= s.reacquire_after_m:
             d = self.blind_m
             bounds = SearchBounds(
                 s.max_correction_m + s.drift_per_m * d,
@@ -225,19 +223,25 @@ class MapLocaliser:
         )
         if not good:
             self.misses += 1
-            return False
+            return self._while_lost(points) if s.relocalise and self.lost else False
         self.misses = 0
         self.blind_m = 0.0
+        self.given_up = ""
+        self._searches = self._lost_scans = 0
         self.last_match = m
         self.odometry.correct(m.x, m.y, m.theta)
         return True
 
     def _while_lost(self, points: np.ndarray) -> bool:
-        """Lost: search for the pose every ``relocalise_every_scans`` scan, widening from the
-        pose it had, until one fits or ``relocalise_attempts`` searches have failed."""
+        """Lost (and the scan did not match where the pose is): search for the pose every
+        ``relocalise_every_scans`` scan, widening from the pose it had, until one fits or
+        ``relocalise_attempts`` searches have failed. A scan that matches where the pose
+        is ends it as well (a lift car's walls hid the map for a moment)."""
         s = self.settings
         self._lost_scans += 1
-        due = (self._lost_scans - 1) % s.relocalise_every_scans == 0
+        # the scan that made it lost only says so (the pose goes out flagged lost, the
+        # chair stops, and a pose found elsewhere next reads as a jump, not as driving)
+        due = self._lost_scans > 1 and (self._lost_scans - 2) % s.relocalise_every_scans == 0
         if self.given_up or not due:
             return False
         self._searches += 1

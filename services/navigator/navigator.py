@@ -257,7 +257,8 @@ class Navigator:
         """The localisation gave its pose up (``relocalise_failed``: no search found one that
         fits unambiguously): nothing more will come of waiting, so a running mission stops
         the chair and fails now, saying why, instead of at the end of the safety limit."""
-        if msg.kind != "relocalise_failed" or not self.running:
+        # in a lift car the map is not the car's: the floor change sets the pose anew
+        if msg.kind != "relocalise_failed" or not self.running or self.bb.phase in IN_A_CAR:
             return
         self.tree.root.stop(Status.INVALID)
         self.fleet.stop()

@@ -641,6 +641,17 @@ def test_a_pose_the_localisation_gave_up_ends_the_mission_at_once_saying_why() -
     nav.on_localisation_event(Event(2.0, "localisation", "relocalise_failed", why, "error"))
     assert nav.status.state == "failed" and fleet.stops > stops
     assert nav.status.reason == f"localisation lost: {why}"
+    # in a lift car (the car's walls are not on the floor's map) it is not given up: the
+    # floor change sets the pose anew at the car's door
+    from tests.behaviours.test_mission_tree import LIFT_ROUTE
+
+    riding = ScriptedFleet(LIFT_ROUTE)
+    nav2, _ = navigator(riding)
+    nav2.ride_on(NavGoal(0.0, "g2", place="room_b"), LIFT_ROUTE, 1)
+    step(nav2, riding)
+    assert nav2.status.phase == Phase.RIDE, nav2.status
+    nav2.on_localisation_event(Event(3.0, "localisation", "relocalise_failed", why, "error"))
+    assert nav2.status.state == "running"
 
 
 def test_a_powered_door_behind_the_chair_is_held_open_until_its_leaf_cannot_reach_it() -> None:
