@@ -180,3 +180,36 @@ def test_world_differs_draws_buildings_of_their_own_whose_missions_name_the_worl
     assert "world" in building["built"].geometry
     for path in building["built"].scenarios:
         assert yaml.safe_load(path.read_text())["world_site"] == "../world"
+
+
+def test_the_localisation_at_doors_and_missions_lost_to_it_are_summed_up() -> None:
+    """Issue 15's campaign figures: 0 missions lost to the localisation, and its error at
+    every door checkpoint on the ground truth, as a distribution."""
+    crossed = [
+        {"kind": "door", "id": "d1", "loc_error_m": 0.004},
+        {"kind": "door", "id": "d2", "loc_error_m": 0.061},
+        {"kind": "elevator", "id": "lift_a"},
+    ]
+    lost_and_found = [
+        {"source": "localisation", "kind": "lost"},
+        {"source": "localisation", "kind": "relocalised"},
+    ]
+    gave_up = "localisation lost: no unambiguous pose after 5 searches of the floor"
+    lost = [{"source": "localisation", "kind": "lost"}]
+    rows = [
+        judge(scenario(), report(True, checkpoints=crossed, events=lost_and_found)),
+        judge(scenario(), report(False, gave_up, events=lost)),
+        judge(scenario(), report(True)),  # a row from before these figures
+    ]
+    assert rows[0]["door_loc_errors_m"] == [0.004, 0.061] and rows[0]["relocalised"] == 1
+    assert not rows[0]["lost_to_localisation"] and rows[1]["lost_to_localisation"]
+    for r in rows[2:]:  # stored before: none of the new keys
+        for key in ("door_loc_errors_m", "times_lost", "relocalised", "lost_to_localisation"):
+            r.pop(key)
+    f = figures(rows, 3)
+    assert f["lost_to_localisation"] == 1 and f["missions_ever_lost"] == 2
+    d = f["door_loc_error"]
+    assert d["doors"] == 2 and d["max_m"] == 0.061 and d["over_5_cm"] == 1
+    text = format_figures(f)
+    assert "missions lost to it 1" in text and "over 5 cm 1" in text
+    assert figures([rows[2]], 1)["door_loc_error"] is None

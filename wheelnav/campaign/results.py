@@ -92,6 +92,26 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
         "reason": reason,
         "scenario": str(scenario.path),
         "replay": f"wheelnav mission {scenario.path}",
+        **localisation(report),
+    }
+
+
+def localisation(report: dict[str, Any]) -> dict[str, Any]:
+    """Issue 15's figures of one run: the localisation's error at each door crossed (on the
+    ground truth), how often the pose was lost and searched for, and whether the mission was
+    lost to it (the localisation gave its pose up, or a stale pose ended it)."""
+    kinds = [e.get("kind") for e in report.get("events", []) if e.get("source") == "localisation"]
+    reason = report.get("reason", "")
+    gave_up = "relocalise_failed" in kinds or "localisation lost" in reason
+    return {
+        "door_loc_errors_m": [
+            c["loc_error_m"]
+            for c in report.get("checkpoints", [])
+            if c.get("kind") == "door" and c.get("loc_error_m") is not None
+        ],
+        "times_lost": kinds.count("lost"),
+        "relocalised": kinds.count("relocalised"),
+        "lost_to_localisation": not report.get("success") and (gave_up or "stale_pose" in reason),
     }
 
 

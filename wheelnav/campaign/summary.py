@@ -10,6 +10,8 @@ import numpy as np
 
 from wheelnav.campaign.results import AWAY_CLEARANCE_M
 
+LOC_AT_DOOR_M = 0.05  # issue 15: the localisation's error at every door checkpoint, at most
+
 
 def figures(rows: list[dict[str, Any]], planned: int) -> dict[str, Any]:
     """Counts and rates over the rows that ran (``planned``: missions in the campaign)."""
@@ -40,6 +42,27 @@ def figures(rows: list[dict[str, Any]], planned: int) -> dict[str, Any]:
         "time_ratio_median": round(float(np.median(ratios)), 3) if ratios else None,
         "time_ratio_p90": round(float(np.percentile(ratios, 90)), 3) if ratios else None,
         "by_kind": {k: f"{v[0]}/{v[1]}" for k, v in sorted(by_kind.items())},
+        **_localisation(ran),
+    }
+
+
+def _localisation(ran: list[dict[str, Any]]) -> dict[str, Any]:
+    """Issue 15: missions lost to the localisation, and its error at the doors crossed
+    (rows from before these figures count as none)."""
+    errors = np.array([e for r in ran for e in r.get("door_loc_errors_m", [])], float)
+    spread = None
+    if len(errors):
+        spread = {
+            "doors": len(errors),
+            "median_m": round(float(np.median(errors)), 4),
+            "p90_m": round(float(np.percentile(errors, 90)), 4),
+            "max_m": round(float(errors.max()), 4),
+            "over_5_cm": int((errors > LOC_AT_DOOR_M).sum()),
+        }
+    return {
+        "lost_to_localisation": sum(bool(r.get("lost_to_localisation")) for r in ran),
+        "missions_ever_lost": sum(r.get("times_lost", 0) > 0 for r in ran),
+        "door_loc_error": spread,
     }
 
 
@@ -75,10 +98,26 @@ def format_figures(f: dict[str, Any]) -> str:
             f"clearance: min away from doors {_num(f['min_clearance_away_m'], '.3f')} m "
             f"(limit 0.050), min slack in openings {_num(f['min_door_slack_m'], '.3f')} m "
             f"(limit 0), missions below a limit {f['clearance_violations']}",
+            _loc_line(f),
             f"mission time / (planned length / 0.5 m/s), successful missions: median "
             f"{_num(f['time_ratio_median'], '.2f')}, 90th percentile "
             f"{_num(f['time_ratio_p90'], '.2f')}",
         ]
+    )
+
+
+def _loc_line(f: dict[str, Any]) -> str:
+    """The localisation's figures in one line."""
+    d = f.get("door_loc_error")
+    at_doors = (
+        f"error at {d['doors']} doors crossed: median {d['median_m']:.3f} m, 90th percentile "
+        f"{d['p90_m']:.3f} m, max {d['max_m']:.3f} m, over 5 cm {d['over_5_cm']}"
+        if d
+        else "no door crossings measured"
+    )
+    return (
+        f"localisation: missions lost to it {f.get('lost_to_localisation', 0)}, ever lost "
+        f"{f.get('missions_ever_lost', 0)}; {at_doors}"
     )
 
 
