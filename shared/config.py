@@ -163,6 +163,23 @@ class KidnapConfig:
     dtheta: float = 0.0
 
 
+def _deflection(v: int) -> str | None:
+    return None if -100 <= v <= 100 else "must be in -100..100"
+
+
+@dataclass
+class RiderConfig:
+    """The rider takes the joystick (issue 16, on the hardware path only: the joystick is
+    the emulated WHILL's): from ``at_s`` (the simulator's clock) for ``for_s`` seconds it
+    is deflected ``front`` forwards and ``side`` to the right (-100..100, as the Model CR
+    reports it), then let go. The driver hands the chair to the rider; the mission pauses."""
+
+    at_s: float = field(default=0.0, metadata=check(_non_negative))
+    for_s: float = field(default=1.0, metadata=check(_positive))
+    front: int = field(default=0, metadata=check(_deflection))
+    side: int = field(default=0, metadata=check(_deflection))
+
+
 @dataclass
 class SimConfig:
     """The headless pybullet simulator."""
@@ -219,6 +236,7 @@ class SimConfig:
     start: StartPose = field(default_factory=StartPose)
     pedestrians: list[PedestrianConfig] = field(default_factory=list)
     kidnaps: list[KidnapConfig] = field(default_factory=list)
+    riders: list[RiderConfig] = field(default_factory=list)
 
 
 @dataclass

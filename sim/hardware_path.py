@@ -31,8 +31,17 @@ from sim.whill_emulator import ChairModel, ChairParams, WhillEmulator
 
 def check_hardware_path(cfg: FleetConfig) -> None:
     """ConfigError naming the key if ``cfg`` asks for the hardware path with a setting it
-    cannot run with (the emulated chair and the packets run on wall time)."""
+    cannot run with (the emulated chair and the packets run on wall time), or for a rider
+    without it (the rider's joystick is the emulated WHILL's)."""
+    for i, rider in enumerate(cfg.sim.riders):
+        if (rider.front, rider.side) == (0, 0):
+            raise ConfigError(f"sim.riders[{i}]: front or side must not be 0 (a joystick at rest)")
     if not cfg.sim.hardware_path:
+        if cfg.sim.riders:
+            raise ConfigError(
+                "sim.riders: needs sim.hardware_path (the rider's joystick is the emulated"
+                f" WHILL's), got {len(cfg.sim.riders)} rider(s)"
+            )
         return
     needs = [
         ("clock", cfg.clock, "wall", "the drivers run on wall time"),
@@ -107,6 +116,7 @@ class HardwarePath:
             self.emulator.close()
             raise
         self.sender = ScanSender(cfg.sim.vlp16_host, cfg.vlp16.port)
+        self.joystick = (0, 0)  # as the scripted riders (sim.riders) hold it now
         self.emulator.start()
         self.sender.start()
         self.log.info(
@@ -141,6 +151,23 @@ class HardwarePath:
         """Whether a driver has asked the emulated chair for its data (the link is up)."""
         with self.emulator.locked() as chair:
             return chair.stream_set is not None
+
+    def ride(self, t_s: float) -> str:
+        """Deflect the emulated chair's joystick as the scripted riders hold it at the
+        simulator's time ``t_s`` (the first rider then riding; at rest when none is); what
+        changed, in words ("" when nothing did)."""
+        now = next(
+            ((r.front, r.side) for r in self.cfg.sim.riders if r.at_s <= t_s < r.at_s + r.for_s),
+            (0, 0),
+        )
+        if now == self.joystick:
+            return ""
+        self.joystick = now
+        with self.emulator.locked() as chair:
+            chair.rider_joystick(*now)
+        if now == (0, 0):
+            return "the rider lets go of the joystick"
+        return f"the rider takes the joystick (front {now[0]}, side {now[1]})"
 
     def send_scan(self, points: np.ndarray, stamp_s: float) -> None:
         """Send one scan (sensor-frame points) as a revolution of packets."""

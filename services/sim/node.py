@@ -101,7 +101,9 @@ def main(argv: list[str] | None = None) -> None:
 
 def _serve(svc: Service, sim: Simulation, hardware: HardwarePath | None) -> None:
     """Wire the simulator to the bus, wait for the fleet, run until stopped. On the
-    hardware path the drivers take commands and the emergency stop, not the simulator."""
+    hardware path the drivers take commands and obey the emergency stop, not the
+    simulator; it still holds the stop (answers for it, keeps it for a restarted holder),
+    as every live holder does for ``wheelnav stop``."""
     cfg, keys, bus = svc.cfg, svc.keys, svc.bus
     barrier = Barrier(cfg.sim.lockstep_stages)
     profile = TickProfile(barrier.n_stages, cfg.sim.dt)
@@ -114,7 +116,7 @@ def _serve(svc: Service, sim: Simulation, hardware: HardwarePath | None) -> None
             sim.command(msg.v, msg.w)
 
     def on_estop(latch: EstopLatch) -> None:
-        if latch.stop.active:
+        if latch.stop.active and hardware is None:
             sim.command(0.0, 0.0)
 
     def on_ack(msg: Ack) -> None:
@@ -130,8 +132,8 @@ def _serve(svc: Service, sim: Simulation, hardware: HardwarePath | None) -> None
         sim.set_door_openings(msg.doors, msg.door_openings)
         sim.set_lifts(msg.lifts, msg.car_elevations, msg.lift_door_openings)
 
+    estop = hold_estop(bus, keys, NAME, svc.log, on_estop)
     if hardware is None:
-        estop = hold_estop(bus, keys, NAME, svc.log, on_estop)
         bus.subscribe(svc.declare("subscribes", keys.cmd_vel), Twist, on_cmd)
     bus.subscribe(svc.declare("subscribes", keys.key("building_bodies")), BuildingBodies, on_bodies)
     bus.subscribe(svc.declare("subscribes", keys.ack), Ack, on_ack)
@@ -211,9 +213,11 @@ def _run(
         t1 = clock()
         profile.physics_s += t1 - t0
         stamp = result.stamp
+        rider = ""
         if hardware is not None:  # the drivers publish the chair's sensors
             if result.scan is not None:
                 hardware.send_scan(result.scan, time.time())
+            rider = hardware.ride(stamp)
         else:
             # the chair's sensors: stamped as a driver stamps them (its host's clock) on wall
             # time
@@ -241,6 +245,8 @@ def _run(
             bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
         if result.kidnapped:
             bus.publish(events_key, Event(stamp, NAME, "kidnapped", result.kidnapped, "warning"))
+        if rider:
+            bus.publish(events_key, Event(stamp, NAME, "rider", rider, "info"))
         if result.new_collision or result.tick % status_every == 0:
             bus.publish(keys.sim_status, status_message(sim, stamp))
         if result.tick % PROFILE_EVERY == 0:

@@ -5,7 +5,10 @@ with the drivers' stamps an hour ahead of and behind the fleet's clock, where no
 be judged stale (receivers judge staleness by arrival, shared/arrivals.py).
 
 Each run is ``wheelnav mission scenarios/demo.yaml`` with the hardware path's settings,
-through the mission runner; a probe on the run's router reads the drivers' stamps.
+through the mission runner; a probe on the run's router reads the drivers' stamps. In the
+run an hour behind, a scripted rider (``sim.riders``) deflects the emulated chair's joystick
+and the operator sets and clears the emergency stop (``wheelnav stop``, ``wheelnav
+resume`` on the run's router): both reach the chair through the WHILL driver, end to end.
 Conditions are waited for with generous timeouts; no assertion is on a duration.
 """
 
@@ -18,10 +21,10 @@ import time
 import pytest
 
 from shared.config import TransportConfig
-from shared.messages import Odometry, PointCloud
+from shared.messages import NavStatus, Odometry, PointCloud
 from shared.topics import Keys
 from shared.transport import Bus, open_session
-from tests.conftest import ROOT
+from tests.conftest import ROOT, wheelnav
 from tests.integration.test_fleet import STALE_BLIP_S, Capture, stale_holds
 from wheelnav.mission.run import MissionRun
 from wheelnav.mission.scenario import load_scenario
@@ -35,6 +38,9 @@ HARDWARE_PATH = [
     "sim.hardware_path=true",
 ]
 WAIT_S = 120.0  # for the run's router to come up
+RIDER = ["sim.riders=[{at_s: 4.0, for_s: 0.5, front: 40}]"]  # mid-corridor, driving
+STILL_MPS = 0.01
+HOLD_S = 3.0  # wall time the operator keeps the chair paused, then stopped
 
 
 class Stamps:
@@ -44,19 +50,43 @@ class Stamps:
     def __init__(self, run: MissionRun, out: Capture) -> None:
         self.run, self.out = run, out
         self.offsets: dict[str, list[float]] = {"odom": [], "scan": []}
+        # (arrival on this host's monotonic clock, message): on wall time the services'
+        # stamps are their clocks, the ground truth's the simulator's
+        self.truth: list[tuple[float, Odometry]] = []
+        self.status: list[tuple[float, NavStatus]] = []
         self.bus: Bus | None = None
         self._lock = threading.Lock()
+
+    def endpoint(self) -> str:
+        return f"tcp/127.0.0.1:{self.run.port}"
 
     def attach(self) -> None:
         """Wait for the run's router, then subscribe (from a thread, alongside the run)."""
         end = time.monotonic() + WAIT_S
         while time.monotonic() < end and "fleet starting" not in self.out.text():
             time.sleep(0.1)
-        endpoint = f"tcp/127.0.0.1:{self.run.port}"
-        self.bus = Bus(open_session(TransportConfig(connect=[endpoint])), "probe")
+        self.bus = Bus(open_session(TransportConfig(connect=[self.endpoint()])), "probe")
         keys = Keys(self.run.scenario.config.robot.name)
         self.bus.subscribe(keys.odom, Odometry, lambda m: self._seen("odom", m.stamp))
         self.bus.subscribe(keys.scan, PointCloud, lambda m: self._seen("scan", m.stamp))
+        self.bus.subscribe(keys.ground_truth, Odometry, lambda m: self._keep(self.truth, m))
+        self.bus.subscribe(keys.nav_status, NavStatus, lambda m: self._keep(self.status, m))
+
+    def _keep(self, into: list, msg: object) -> None:
+        with self._lock:
+            into.append((time.monotonic(), msg))
+
+    def wait_for(self, what, timeout_s: float, fail: str):
+        """The first non-None ``what(truth, status)`` (under the lock), polled; AssertionError
+        saying ``fail`` after ``timeout_s`` of wall time."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            with self._lock:
+                got = what(self.truth, self.status)
+            if got is not None:
+                return got
+            time.sleep(0.05)
+        raise AssertionError(fail)
 
     def _seen(self, kind: str, stamp: float) -> None:
         with self._lock:
@@ -67,26 +97,93 @@ class Stamps:
             self.bus.close()
 
 
-def run_demo(offset_s: float) -> tuple[dict, Stamps, str]:
-    """The demo mission on the hardware path, the drivers' clocks ``offset_s`` off."""
-    overrides = [*HARDWARE_PATH, f"whill.stamp_offset_s={offset_s}"]
+def run_demo(
+    offset_s: float, extra: list[str] = (), operator=None
+) -> tuple[dict, Stamps, str, list[str]]:
+    """The demo mission on the hardware path, the drivers' clocks ``offset_s`` off, with
+    ``operator(stamps)`` acting from a thread once the probe is attached; the report, the
+    probe, the run's output and what went wrong in the operator's thread."""
+    overrides = [*HARDWARE_PATH, f"whill.stamp_offset_s={offset_s}", *extra]
     overrides.append(f"vlp16.stamp_offset_s={offset_s}")
     out = Capture()
     run = MissionRun(load_scenario(DEMO, overrides), out=out, fleet_output=out)
     stamps = Stamps(run, out)
-    probe = threading.Thread(target=stamps.attach, daemon=True)
-    probe.start()
+    failed: list[str] = []
+
+    def probe() -> None:
+        stamps.attach()
+        if operator is not None:
+            try:
+                operator(stamps)
+            except AssertionError as exc:
+                failed.append(str(exc))
+
+    thread = threading.Thread(target=probe, daemon=True)
+    thread.start()
     try:
         report = run.run()
     finally:
-        probe.join(timeout=10)
+        thread.join(timeout=60)
         stamps.close()
-    return report, stamps, out.text()
+    return report, stamps, out.text(), failed
 
 
-@pytest.mark.parametrize("offset_s", [3600.0, -3600.0])  # 0 adds nothing: the path is the same
-def test_the_demo_succeeds_through_the_drivers_whatever_their_clock(offset_s: float) -> None:
-    report, stamps, text = run_demo(offset_s)
+def test_the_demo_succeeds_through_the_drivers_an_hour_ahead() -> None:
+    report, stamps, text, _ = run_demo(3600.0)
+    assert_driven_through_the_drivers(report, stamps, text, 3600.0)
+
+
+def operate(stamps: Stamps) -> None:
+    """The rider's pause, resumed by ``wheelnav resume``; then the emergency stop, set and
+    cleared with ``wheelnav stop``: each asserted on the chair's true motion (times are
+    arrivals at the probe)."""
+    paused = stamps.wait_for(
+        lambda _t, st: next((a for a, m in st if "paused: the rider" in m.reason), None),
+        90,
+        "the mission was not paused when the rider took the joystick",
+    )
+    time.sleep(HOLD_S)
+    with stamps._lock:
+        late = [m for a, m in stamps.truth if a > paused + 1.5]
+    assert late and all(abs(t.v) < STILL_MPS for t in late), ("the paused chair moved", late)
+    resumed = wheelnav("resume", "--connect", stamps.endpoint(), "--timeout", "30")
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    moving = stamps.wait_for(
+        lambda tr, _s: next((a for a, t in tr if a > paused + HOLD_S and t.v > 0.2), None),
+        60,
+        "the chair did not drive on after wheelnav resume",
+    )
+    stop = wheelnav("stop", "--connect", stamps.endpoint(), "--timeout", "30")
+    assert stop.returncode == 0, stop.stdout + stop.stderr
+    assert "acknowledged by" in stop.stdout and "driver" in stop.stdout, stop.stdout
+    stopped = stamps.wait_for(
+        lambda tr, _s: next((a for a, t in tr if a > moving and t.v < STILL_MPS), None),
+        30,
+        "the chair did not stop on the emergency stop",
+    )
+    time.sleep(HOLD_S)
+    with stamps._lock:
+        held = [m for a, m in stamps.truth if a > stopped + 0.5]
+    assert held and all(abs(t.v) < STILL_MPS for t in held), ("the stopped chair moved", held)
+    cleared = wheelnav("stop", "--clear", "--connect", stamps.endpoint(), "--timeout", "30")
+    assert cleared.returncode == 0, cleared.stdout + cleared.stderr
+
+
+def test_the_rider_and_the_emergency_stop_act_through_the_drivers_an_hour_behind() -> None:
+    report, stamps, text, failed = run_demo(-3600.0, RIDER, operate)
+    assert not failed, failed
+    assert_driven_through_the_drivers(report, stamps, text, -3600.0)
+    kinds = [(e["source"], e["kind"]) for e in report["events"]]
+    for seen in [("sim", "rider"), ("driver", "joystick_taken"), ("driver", "joystick_released")]:
+        assert seen in kinds, (seen, report["events"])
+    assert ("driver", "emergency_stop") in kinds, report["events"]
+
+
+def assert_driven_through_the_drivers(
+    report: dict, stamps: Stamps, text: str, offset_s: float
+) -> None:
+    """The mission succeeded with the whole hardware path running, its drivers stamping
+    ``offset_s`` off the fleet's clock and no pose judged stale for it."""
     assert report["success"], (report["reason"], text[-4000:])
     assert report["collisions"] == 0
     # the whole hardware path ran: the chair behind the emulated WHILL and its SDK, the

@@ -24,7 +24,7 @@ from services.vlp16_driver.receiver import UdpReceiver
 from services.whill_driver.config import WhillConfig
 from services.whill_driver.driver import Driver
 from shared import config
-from shared.config import ConfigError, FleetConfig
+from shared.config import ConfigError, FleetConfig, RiderConfig
 from shared.messages import Twist
 from shared.site import load_site
 from sim import vlp16_packets as vp
@@ -75,6 +75,17 @@ def test_the_hardware_path_runs_on_wall_time_only_and_says_which_key_is_wrong() 
             check_hardware_path(config.load(None, [*HARDWARE_PATH, *extra]))
     with pytest.raises(ConfigError, match="sim.vlp16_host: must be an IPv4 address"):
         config.load(None, ["sim.vlp16_host=localhost"])
+
+
+def test_a_scripted_rider_needs_the_hardware_path_and_a_deflected_joystick() -> None:
+    rider = "sim.riders=[{at_s: 4.0, for_s: 0.5, front: 40}]"
+    check_hardware_path(config.load(None, [*HARDWARE_PATH, rider]))
+    with pytest.raises(ConfigError, match=r"^sim.riders: needs sim.hardware_path"):
+        check_hardware_path(config.load(None, [rider]))
+    with pytest.raises(ConfigError, match=r"^sim.riders\[0\]: front or side must not be 0"):
+        check_hardware_path(config.load(None, [*HARDWARE_PATH, "sim.riders=[{at_s: 1}]"]))
+    with pytest.raises(ConfigError, match=r"front: must be in -100..100"):
+        config.load(None, ["sim.riders=[{front: 101}]"])
 
 
 def test_a_hardware_path_mission_runs_its_profile_on_links_of_its_own(tmp_path: Path) -> None:
@@ -213,3 +224,26 @@ def test_the_whill_driver_drives_the_simulated_chair_and_the_scans_come_back(
     rev = revolutions.get(timeout=WAIT_S)
     assert rev.packets == 75 and len(rev.points) > 10_000  # walls and floor of the room
     assert hardware.sender.revolutions > 0 and hardware.emulator.reader.bad == 0
+
+
+def test_a_scripted_rider_takes_the_joystick_and_the_driver_hands_the_chair_over(
+    hardware_path,
+) -> None:
+    sim, hardware, driver, _ = hardware_path
+    hardware.cfg.sim.riders = [RiderConfig(at_s=1.0, for_s=0.5, front=40)]
+    wait_for(hardware.streaming, "the driver asking the emulated chair for its data")
+    assert hardware.ride(0.5) == ""
+    assert hardware.ride(1.0) == "the rider takes the joystick (front 40, side 0)"
+    assert hardware.ride(1.2) == ""  # still held: nothing changed
+    events: list[str] = []
+
+    def rider_seen() -> bool:
+        out = driver.step(time.time())
+        events.extend(kind for kind, _, _ in out.events)
+        return "joystick_taken" in events
+
+    wait_for(rider_seen, "the driver seeing the rider's joystick")
+    assert driver.base.rider
+    assert hardware.ride(1.5) == "the rider lets go of the joystick"
+    with hardware.emulator.locked() as chair:
+        assert chair.joystick == (0, 0)
