@@ -142,7 +142,8 @@ class StartPose:
 
 @dataclass
 class PedestrianConfig:
-    """A scripted pedestrian: a cylinder walking a closed loop of waypoints."""
+    """A scripted pedestrian: a cylinder walking a closed loop of waypoints (one waypoint:
+    standing there)."""
 
     waypoints: list[list[float]] = field(default_factory=list)
     speed: float = field(default=1.0, metadata=check(_positive))

@@ -1,7 +1,8 @@
 """Scripted pedestrians: cylinders walking waypoint loops, for obstacle-avoidance tests.
 
 Each pedestrian walks its loop at constant speed (deterministic: position is a function
-of time only), so the same scenario gives the same encounters on every run.
+of time only), so the same scenario gives the same encounters on every run. One given a
+single waypoint stands there (the people of a generated world the map does not show).
 """
 
 from __future__ import annotations
@@ -15,7 +16,8 @@ PEDESTRIAN_HEIGHT_M = 1.7
 
 
 class Pedestrian:
-    """A cylinder of ``radius`` walking ``waypoints`` (closed loop) at ``speed`` on a floor."""
+    """A cylinder of ``radius`` walking ``waypoints`` (closed loop) at ``speed`` on a floor;
+    with one waypoint (or a loop of no length) it stands there."""
 
     def __init__(
         self,
@@ -27,9 +29,9 @@ class Pedestrian:
         start_delay_s: float = 0.0,
     ) -> None:
         pts = np.asarray(waypoints, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 1:
             raise ValueError(
-                f"pedestrian waypoints must be [[x, y], ...] with 2+ points, got {waypoints!r}"
+                f"pedestrian waypoints must be [[x, y], ...] with 1+ points, got {waypoints!r}"
             )
         if speed <= 0 or radius <= 0:
             raise ValueError("pedestrian speed and radius must be > 0")
@@ -50,7 +52,7 @@ class Pedestrian:
     def move_to(self, t: float) -> None:
         """Place the pedestrian where it is at simulation time ``t``."""
         walked = max(0.0, t - self.start_delay_s) * self.speed
-        s = math.fmod(walked, self.s[-1])
+        s = math.fmod(walked, self.s[-1]) if self.s[-1] > 0 else 0.0  # 0: standing
         x = float(np.interp(s, self.s, self.loop[:, 0]))
         y = float(np.interp(s, self.s, self.loop[:, 1]))
         self.position = (x, y)

@@ -8,7 +8,8 @@ scenarios under ``folder/missions``. Everything comes from one
 is geometry nobody tuned the navigation stack for. With ``GenOptions.world_differs`` it
 also draws the world the simulator builds apart from the map the stack is given
 (``folder/world``, :mod:`sim.building_gen.world`), which the missions name as their
-``world_site``.
+``world_site``; the people standing in it that no map shows are in the missions'
+``sim.pedestrians`` (those on the floors each mission uses).
 """
 
 from __future__ import annotations
@@ -95,6 +96,8 @@ def generate_building(
     world = _write_world(plan, seed, folder) if opts.world_differs else None
     topology = Topology(plan)
     missions = MissionPlanner(plan, topology, rng).plan_missions(opts, seed)
+    if world is not None:
+        _meet_the_people(missions, plan, world)
     world_site = f"../{WORLD_FOLDER}" if world is not None else None
     scenarios = write_missions(missions, folder / "missions", world_site=world_site)
     geometry = measure(plan)
@@ -115,6 +118,14 @@ def _write_world(plan: BuildingPlan, seed: int, folder: Path) -> WorldDiff:
     world, diff = draw_world(plan, seed)
     write_site(world, folder / WORLD_FOLDER, extent(plan))
     return diff
+
+
+def _meet_the_people(missions: list[MissionSpec], plan: BuildingPlan, world: WorldDiff) -> None:
+    """Give each mission the world's people on the floors it uses: its start's and its
+    goal's (a lift ride goes straight from one to the other; people stand off the shafts)."""
+    floor_of = {p.name: p.floor for f in plan.floors for p in f.places}
+    for m in missions:
+        m.pedestrians = world.pedestrians({m.start["floor"], floor_of[m.goal_place]})
 
 
 def _recorded(opts: GenOptions) -> dict:

@@ -24,7 +24,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--world-differs",
         action="store_true",
-        help="also draw the world (OUTDIR/world) apart from the map: doors, furniture, a wall",
+        help="also draw the world (OUTDIR/world) apart from the map: doors, furniture, a "
+        "wall, people",
     )
     args = parser.parse_args(argv)
     opts = GenOptions(missions=args.missions, world_differs=args.world_differs)

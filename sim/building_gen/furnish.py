@@ -94,14 +94,14 @@ def furnish(st: FloorState, space: Space, anchors: list[tuple[float, float]], co
             sx, sy = pick(rng, 0.4, 1.2, 0.1), pick(rng, 0.4, 1.2, 0.1)
             cx = snap(ax + rng.uniform(-3.0, 3.0))
             cy = snap(ay + rng.uniform(-3.0, 3.0))
-            box = _flush(rect(cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2), inner)
-            if box is not None and _fits(st, box, inner):
+            box = flush(rect(cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2), inner)
+            if box is not None and fits(st, box, inner):
                 st.plan.furniture.append(box)
                 st.free.obstacles.append(box)
                 break
 
 
-def _flush(box: Rect, inner: Rect) -> Rect | None:
+def flush(box: Rect, inner: Rect) -> Rect | None:
     """``box`` pushed against a wall it nearly touches; None if it sticks out of ``inner``."""
     x0, y0, x1, y1 = box
     dx = dy = 0.0
@@ -119,7 +119,7 @@ def _flush(box: Rect, inner: Rect) -> Rect | None:
     return box if inside else None
 
 
-def _fits(st: FloorState, box: Rect, inner: Rect) -> bool:
+def fits(st: FloorState, box: Rect, inner: Rect) -> bool:
     """Flush or >= PASSAGE from each wall, PASSAGE from other obstacles, clear of keep-outs."""
     gaps = (box[0] - inner[0], box[1] - inner[1], inner[2] - box[2], inner[3] - box[3])
     if any(1e-9 < g < PASSAGE - 1e-9 for g in gaps):

@@ -58,6 +58,9 @@ class MissionSpec:
     stuck_doors: list[str] = field(default_factory=list)
     lifts: dict[str, dict] = field(default_factory=dict)
     navigator: dict[str, float] = field(default_factory=dict)
+    # people standing in the world the map does not show, as sim.pedestrians entries
+    # (GenOptions.world_differs: those on the start's and the goal's floors)
+    pedestrians: list[dict] = field(default_factory=list)
 
     def scenario(self, site: str, world_site: str | None = None) -> dict:
         """The scenario YAML content, with ``site`` (and ``world_site``, the world the
@@ -88,6 +91,8 @@ class MissionSpec:
             building["lifts"] = {k: dict(v) for k, v in self.lifts.items()}
         if building:
             config["building"] = building
+        if self.pedestrians:
+            config["sim"] = {"pedestrians": [dict(p) for p in self.pedestrians]}
         if config:
             data["config"] = config
         return data

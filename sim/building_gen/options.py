@@ -24,7 +24,8 @@ class GenOptions:
     more than one floor. ``mission_kinds`` (kind -> count) replaces the default mix of
     ``missions`` missions. ``world_differs`` also draws the world the simulator builds
     apart from the map the stack is given (:mod:`sim.building_gen.world`: doors moved,
-    furniture added and removed, a partition moved); off, nothing is drawn as before.
+    furniture added and removed, a partition moved, people standing); off, nothing is
+    drawn as before.
     """
 
     floors: tuple[int, int] = (1, 3)

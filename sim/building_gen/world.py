@@ -3,26 +3,28 @@
 With ``GenOptions.world_differs`` the generator draws, beside the site the stack gets, a
 second site (``world/``) from a copy of the same plan with seeded differences the map
 does not show: some doors displaced along their wall by up to 0.20 m (opening, leaf and
-door entry move), furniture the map lacks and some of the map's furniture gone, and one
-partition between two rooms shifted by up to 0.20 m. A change is kept only if the floor
-still keeps the generator's promises around it: every nearby door's turning discs,
-straight approaches, leaf, sweep, pocket and jambs (:func:`~sim.building_gen.doors.
-door_rules`), every nearby place's clearance, and the passage around furniture. So the
-areas and doors joining them, and each mission's expected outcome, are the map's. The
-world's draws come from their own random stream: the map and the missions are those
-drawn without the option.
+door entry move), furniture the map lacks and some of the map's furniture gone, one
+partition between two rooms shifted by up to 0.20 m, and a few people standing where
+furniture may go (not drawn into the world's maps: the simulator makes them bodies, as
+the missions' ``sim.pedestrians``). A change is kept only if the floor still keeps the
+generator's promises around it: every nearby door's turning discs, straight approaches,
+leaf, sweep, pocket and jambs (:func:`~sim.building_gen.doors.door_rules`), every nearby
+place's clearance, and the passage around furniture. So the areas and doors joining
+them, and each mission's expected outcome, are the map's. The world's draws come from
+their own random stream (the people drawn last, so the rest of the world is as drawn
+before there were people): the map and the missions are those drawn without the option.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from sim.building_gen.doors import STRAIGHT, Found, door_pocket, door_rules, door_wall, keep_door
-from sim.building_gen.furnish import PASSAGE, PLACE_CLEARANCE, furnish
+from sim.building_gen.furnish import PASSAGE, PLACE_CLEARANCE, fits, flush, furnish
 from sim.building_gen.geometry import (
     EPS,
     HALF,
@@ -35,6 +37,7 @@ from sim.building_gen.geometry import (
     rect,
     rect_gap,
     rect_points,
+    snap,
 )
 from sim.building_gen.lobby import keep_lift
 from sim.building_gen.plan import BuildingPlan, DoorSpec, FloorPlan, LiftSpec, PlaceSpec, Space
@@ -52,6 +55,10 @@ MIN_PARTITION_M = 1.0  # the shortest partition worth moving
 MIN_SIDE_M = 2.5  # a partition move never makes a space narrower than this
 PARTITIONED = ("room", "inner", "ante", "hall")
 FURNISHED = ("room", "inner", "hall")
+PEOPLE_PER_FLOOR = (0, 3)  # standing people the map does not show, per floor
+PERSON_RADIUS_M = 0.25  # a person: a disc (the simulator's pedestrian cylinder)
+PERSON_NEAR_DOOR_M = 3.0  # a person stands within this (per axis) of a door of its space
+PERSON_TRIES = 40  # spots tried per person before its floor does without it
 
 
 @dataclass
@@ -63,13 +70,15 @@ class WorldDiff:
     ``furniture_removed``: ``{floor, rect}``; ``walls``: ``{floor, spaces, shift_m,
     length_m, freed, walled}``, the partition between ``spaces`` (the first grows)
     moved ``shift_m`` into the second: ``freed`` was wall and is free, ``walled`` was
-    free and is wall.
+    free and is wall; ``people``: ``{floor, x, y, radius_m}``, a person standing there
+    (in no map: the missions give them to the simulator, :meth:`pedestrians`).
     """
 
     doors: list[dict] = field(default_factory=list)
     furniture_added: list[dict] = field(default_factory=list)
     furniture_removed: list[dict] = field(default_factory=list)
     walls: list[dict] = field(default_factory=list)
+    people: list[dict] = field(default_factory=list)
 
     def record(self) -> dict:
         """The ``world`` entry of generated.yaml: where the world is and what differs."""
@@ -79,10 +88,12 @@ class WorldDiff:
             "furniture_added": self.furniture_added,
             "furniture_removed": self.furniture_removed,
             "walls_moved": self.walls,
+            "people": self.people,
         }
 
     def sizes(self) -> dict:
-        """Sizes for the campaign's histogram: door offsets, furniture areas, wall shifts."""
+        """Sizes for the campaign's histogram: door offsets, furniture areas, wall shifts,
+        people's radii (one per person)."""
 
         def area(r: list[float]) -> float:
             return round((r[2] - r[0]) * (r[3] - r[1]), 3)
@@ -93,15 +104,28 @@ class WorldDiff:
             "furniture_removed_m2": [area(f["rect"]) for f in self.furniture_removed],
             "walls_moved_m": [w["shift_m"] for w in self.walls],
             "walls_moved_length_m": [w["length_m"] for w in self.walls],
+            "people_radius_m": [p["radius_m"] for p in self.people],
         }
 
     def summary(self) -> str:
-        """A few words: how many doors moved, pieces added and removed, walls moved."""
+        """A few words: how many doors moved, pieces added and removed, walls moved,
+        people standing."""
+        people = f"{len(self.people)} {'person' if len(self.people) == 1 else 'people'}"
         return (
             f"world differs: {len(self.doors)} doors moved, "
             f"{len(self.furniture_added)}+/{len(self.furniture_removed)}- furniture, "
-            f"{len(self.walls)} wall moved"
+            f"{len(self.walls)} wall moved, {people} standing"
         )
+
+    def pedestrians(self, floors: Iterable[str]) -> list[dict]:
+        """The people on ``floors`` as the simulator's ``sim.pedestrians`` entries: one
+        waypoint each, where the person stands."""
+        wanted = set(floors)
+        return [
+            {"waypoints": [[p["x"], p["y"]]], "radius": p["radius_m"], "floor": p["floor"]}
+            for p in self.people
+            if p["floor"] in wanted
+        ]
 
 
 @dataclass(frozen=True)
@@ -164,6 +188,7 @@ class WorldFloor:
         self.fixed_zones, self.fixed_pockets = fixed.keepouts, fixed.pockets
         self.found: dict[str, Found] = {}
         self.strict: dict[str, bool] = {}
+        self.people: list[Rect] = []  # the bounding squares of the people standing
         self._rules_of_the_map()
 
     # ---- the floor as the generator saw it ----------------------------------------------
@@ -175,7 +200,7 @@ class WorldFloor:
         doors = [d for d in self.plan.doors if d.id != without]
         st.free.carves = list(self.plan.carves)
         leaves = [d.leaf for d in doors if d.leaf is not None]
-        st.free.obstacles = self.plan.columns + self.plan.furniture + leaves
+        st.free.obstacles = self.plan.columns + self.plan.furniture + self.people + leaves
         pockets = [door_pocket(*door_wall(d)) for d in doors if d.motion == "sliding"]
         st.pockets = self.fixed_pockets + pockets
         if zones:
@@ -242,10 +267,11 @@ class WorldFloor:
         """Make ``change`` (it returns the region it touched) and keep it if the rules
         still hold near that region; else undo it and return False."""
         carves, doors, found = list(self.plan.carves), list(self.plan.doors), dict(self.found)
-        spaces = [(s, s.carve) for s in self.plan.spaces]
+        spaces, people = [(s, s.carve) for s in self.plan.spaces], list(self.people)
         if self.holds_near(change()):
             return True
         self.plan.carves[:], self.plan.doors[:], self.found = carves, doors, found
+        self.people[:] = people
         for s, carve in spaces:
             s.carve = carve
         return False
@@ -363,6 +389,43 @@ class WorldFloor:
             furnish(st, space, anchors or [((x0 + x1) / 2, (y0 + y1) / 2)], 1)
         return [{"floor": self.plan.name, "rect": list(r)} for r in self.plan.furniture[before:]]
 
+    def add_people(self, count: int) -> list[dict]:
+        """Up to ``count`` people standing where furniture may go: near a door of a
+        furnished space, each one's bounding square fitted as a piece of furniture is
+        (flush against a wall or a passage away from walls, furniture and the other
+        people, off every keep-out) and every door and place near it keeping its promise."""
+        spaces = [s for s in self.plan.spaces if s.kind in FURNISHED and s.carve]
+        out, r = [], PERSON_RADIUS_M
+        for _ in range(count if spaces else 0):
+            for _ in range(PERSON_TRIES):
+                space = spaces[int(self.rng.integers(len(spaces)))]
+                x0, y0, x1, y1 = space.carve
+                doors = [d.centre for d in self.plan.doors if on_boundary(d.centre, space.rect)]
+                anchors = doors or [((x0 + x1) / 2, (y0 + y1) / 2)]
+                ax, ay = anchors[int(self.rng.integers(len(anchors)))]
+                x = snap(ax + self.rng.uniform(-PERSON_NEAR_DOOR_M, PERSON_NEAR_DOOR_M))
+                y = snap(ay + self.rng.uniform(-PERSON_NEAR_DOOR_M, PERSON_NEAR_DOOR_M))
+                box = flush(rect(x - r, y - r, x + r, y + r), space.carve)
+                if box is not None and self._stands(box, space.carve):
+                    x, y = round((box[0] + box[2]) / 2, 6), round((box[1] + box[3]) / 2, 6)
+                    out.append({"floor": self.plan.name, "x": x, "y": y, "radius_m": r})
+                    break
+        return out
+
+    def _stands(self, box: Rect, inner: Rect) -> bool:
+        """Whether a person fits in ``box`` of the space ``inner`` as furniture would,
+        the people so far counting as furniture; if so the person stays (an obstacle)."""
+        if any(rect_gap(box, p) < PASSAGE - EPS for p in self.people):
+            return False
+        if not fits(self.state(), box, inner):
+            return False
+
+        def change() -> Rect:
+            self.people.append(box)
+            return box
+
+        return self._try(change)
+
 
 def draw_world(plan: BuildingPlan, seed: int) -> tuple[BuildingPlan, WorldDiff]:
     """A copy of ``plan`` altered as the world differs from it, and what differs."""
@@ -377,6 +440,8 @@ def draw_world(plan: BuildingPlan, seed: int) -> tuple[BuildingPlan, WorldDiff]:
         diff.doors += wf.move_doors()
     for wf in floors:
         diff.furniture_added += wf.add_furniture(int(rng.integers(*ADDED_PER_FLOOR, endpoint=True)))
+    for wf in floors:  # last: the draws before are those of a world without people
+        diff.people += wf.add_people(int(rng.integers(*PEOPLE_PER_FLOOR, endpoint=True)))
     return world, diff
 
 

@@ -2,13 +2,15 @@
 
 With ``GenOptions.world_differs`` the world (``world/``) differs from the map exactly as
 generated.yaml records it (doors moved along their wall by at most 0.20 m, furniture added
-and removed, one partition moved), keeps every promise the map keeps (checked on the
-written files as tests/sim/test_building_gen.py checks maps), and the missions name it as
-their ``world_site``. Without the option a building is drawn byte for byte as before.
+and removed, one partition moved, people standing), keeps every promise the map keeps
+(checked on the written files as tests/sim/test_building_gen.py checks maps, the people
+drawn in), and the missions name it as their ``world_site`` and give the simulator the
+people on their floors. Without the option a building is drawn byte for byte as before.
 """
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import math
 from pathlib import Path
@@ -19,6 +21,10 @@ import yaml
 
 from shared.site import Site, load_site
 from sim.building_gen import GeneratedBuilding, GenOptions, generate_building
+from sim.building_gen.furnish import PLACE_CLEARANCE, fits
+from sim.building_gen.geometry import point_rect_dist, rect
+from sim.building_gen.world import PEOPLE_PER_FLOOR, PERSON_RADIUS_M, WorldFloor, draw_world
+from sim.simulation import Simulation
 from tests.sim.test_building_gen import (
     _files,
     check_gaps,
@@ -75,6 +81,37 @@ def _gap(door: dict) -> list[float]:
 
 def _site_yaml(folder: Path) -> dict:
     return yaml.safe_load((folder / "site.yaml").read_text())
+
+
+def _people_drawn_in(site: Site, people: list[dict]) -> Site:
+    """A copy of ``site`` with every cell a person's disc touches made wall (as if they
+    were furniture)."""
+    site = copy.deepcopy(site)
+    for p in people:
+        grid = site.floor(p["floor"]).map
+        res, r = grid.resolution, p["radius_m"]
+        rows, cols = np.mgrid[0 : grid.shape[0], 0 : grid.shape[1]]
+        dx = np.maximum(0.0, np.maximum(cols * res - p["x"], p["x"] - (cols + 1) * res))
+        dy = np.maximum(0.0, np.maximum(rows * res - p["y"], p["y"] - (rows + 1) * res))
+        grid.cells[np.hypot(dx, dy) < r - 1e-9] = 100
+    return site
+
+
+def _pedestrians(data: dict) -> list[dict]:
+    """A mission file's ``config.sim.pedestrians`` (none: [])."""
+    return ((data.get("config") or {}).get("sim") or {}).get("pedestrians", [])
+
+
+def _without_people(data: dict) -> dict:
+    """A mission file's content without its ``config.sim.pedestrians`` (and what empties)."""
+    data = copy.deepcopy(data)
+    config = data.get("config") or {}
+    config.get("sim", {}).pop("pedestrians", None)
+    if config.get("sim") == {}:
+        del config["sim"]
+    if config == {}:
+        data.pop("config", None)
+    return data
 
 
 def _without_world(data: dict) -> dict:
@@ -155,7 +192,8 @@ def test_the_option_adds_a_world_and_changes_nothing_else(worlds, tmp_path: Path
     for name in (k for k in off if k.startswith("missions/")):
         data = yaml.safe_load(on[name])
         assert data.pop("world_site") == "../world"
-        assert data == yaml.safe_load(off[name]), name
+        assert not _pedestrians(yaml.safe_load(off[name])), name
+        assert _without_people(data) == yaml.safe_load(off[name]), name
     assert _without_world(record) == yaml.safe_load(off["generated.yaml"])
     assert record["options"]["world_differs"] is True
 
@@ -164,7 +202,7 @@ def test_the_option_adds_a_world_and_changes_nothing_else(worlds, tmp_path: Path
 
 
 def test_the_world_differs_from_the_map_as_recorded(worlds) -> None:
-    walls = removed = 0
+    walls = removed = people = 0
     for b, site, real, record in worlds:
         label = f"seed {b.seed}"
         world = record["world"]
@@ -184,16 +222,21 @@ def test_the_world_differs_from_the_map_as_recorded(worlds) -> None:
         assert sizes["walls_moved_m"] == [w["shift_m"] for w in world["walls_moved"]], label
         assert len(sizes["furniture_added_m2"]) == len(world["furniture_added"]), label
         assert len(world["walls_moved"]) <= 1, label
+        assert sizes["people_radius_m"] == [p["radius_m"] for p in world["people"]], label
+        assert len(world["people"]) <= PEOPLE_PER_FLOOR[1] * len(site.floors), label
         walls += len(world["walls_moved"])
         removed += len(world["furniture_removed"])
-    assert walls >= len(worlds) - 1 and removed > 0
+        people += len(world["people"])
+    assert walls >= len(worlds) - 1 and removed > 0 and people >= len(worlds)
 
 
 def test_the_world_keeps_the_promises_of_the_map(worlds) -> None:
     """Turning discs and straight approaches at every door, solid jambs and pockets, clear
-    places and landings, and every mission's expected outcome, on the world's files."""
-    for b, _, world, _ in worlds:
+    places and landings, and every mission's expected outcome, on the world's files with
+    its people drawn in as if they were furniture."""
+    for b, _, world, record in worlds:
         label = f"seed {b.seed} (world)"
+        world = _people_drawn_in(world, record["world"]["people"])
         check_turning_discs(label, b.world_path, world)
         check_gaps(label, b.world_path, world)
         check_places(label, b.world_path, world)
@@ -214,3 +257,113 @@ def test_missions_load_with_their_world(worlds) -> None:
             world = load_site(scenario.config.sim.world_site)
             assert [d.id for d in world.doors] == [d.id for d in site.doors]
             assert scenario.place in world.places
+
+
+# ---- the people ----------------------------------------------------------------------
+
+
+def test_people_stand_off_every_door_rule_and_place_clearance(worlds) -> None:
+    """Each person's disc (and its bounding square) lies in a furnished space's free part,
+    off every keep-out the world's doors, openings, lifts and places hold (the generator's
+    own turning discs, straight approaches, leaves and sweeps), and a place's clearance
+    plus its radius from every place; the world drawn again draws the same people."""
+    for b, _, _, record in worlds:
+        label = f"seed {b.seed}"
+        people = record["world"]["people"]
+        plan, diff = draw_world(b.plan, b.seed)
+        assert diff.people == people, label
+        for floor in plan.floors:
+            here = [p for p in people if p["floor"] == floor.name]
+            wf = WorldFloor(floor, plan.lifts, np.random.default_rng(0))
+            st = wf.state()
+            rooms = [s.carve for s in floor.spaces if s.kind in ("room", "inner", "hall")]
+            for p in here:
+                r = p["radius_m"]
+                assert r == PERSON_RADIUS_M, label
+                box = rect(p["x"] - r, p["y"] - r, p["x"] + r, p["y"] + r)
+                assert any(
+                    c and c[0] <= box[0] and c[1] <= box[1] and box[2] <= c[2] and box[3] <= c[3]
+                    for c in rooms
+                ), (label, p)
+                assert not st.blocked(box, ("zone", "sweep")), (label, p)
+                assert any(fits(st, box, c) for c in rooms if c), (label, p)
+                for place in floor.places:
+                    gap = math.hypot(place.x - p["x"], place.y - p["y"])
+                    assert gap >= PLACE_CLEARANCE + r - 1e-6, (label, p, place.name)
+                    assert point_rect_dist(place.x, place.y, box) >= PLACE_CLEARANCE - 1e-6
+
+
+def test_people_are_drawn_the_same_for_the_same_seed(worlds, tmp_path: Path) -> None:
+    b, _, _, record = worlds[1]
+    again = generate_building(b.seed, tmp_path / "again", GenOptions(world_differs=True))
+    assert _files(again.site_path) == _files(b.site_path)
+    assert again.world.people == record["world"]["people"]
+    other = generate_building(b.seed + 100, tmp_path / "other", GenOptions(world_differs=True))
+    assert other.world.people != again.world.people
+
+
+def test_each_mission_gives_the_simulator_the_people_on_its_floors(worlds) -> None:
+    """A mission's ``sim.pedestrians`` are the world's people on its start's and its goal's
+    floors, each standing (one waypoint); the scenario loader passes them on."""
+    given = 0
+    for b, site, _, record in worlds:
+        people = record["world"]["people"]
+        for path in b.scenarios:
+            data = yaml.safe_load(path.read_text())
+            floors = {data["start"]["floor"], site.places[data["goal"]["place"]].floor}
+            want = [p for p in people if p["floor"] in floors]
+            got = _pedestrians(data)
+            assert [(p["floor"], p["waypoints"], p["radius"]) for p in got] == [
+                (p["floor"], [[p["x"], p["y"]]], p["radius_m"]) for p in want
+            ], (b.seed, path.name)
+            given += len(got)
+        scenario = load_scenario(b.scenarios[0])
+        assert [len(p.waypoints) for p in scenario.config.sim.pedestrians] == [1] * len(
+            _pedestrians(yaml.safe_load(b.scenarios[0].read_text()))
+        )
+    assert given > 0
+
+
+def test_a_person_is_a_body_the_lidar_sees_and_the_map_does_not_show(worlds) -> None:
+    """The simulator of a world mission stands each person where generated.yaml says; a
+    chair put down facing one sees it at its distance less its radius, where the world's
+    own map (and the stack's) is free."""
+    b, site, world, _ = worlds[0]
+    path, person = next(
+        (path, p)
+        for path in b.scenarios
+        for p in _pedestrians(yaml.safe_load(path.read_text()))
+        if p["floor"] == yaml.safe_load(path.read_text())["start"]["floor"]
+    )
+    cfg = load_scenario(path).config
+    sim = Simulation(cfg, world)
+    placed = [(round(q.position[0], 6), round(q.position[1], 6)) for q in sim.pedestrians]
+    assert placed == [tuple(p.waypoints[0]) for p in cfg.sim.pedestrians]
+    (px, py), floor = person["waypoints"][0], person["floor"]
+    for m in (site.floor(floor).map, world.floor(floor).map):
+        assert not m.occupied()[m.to_cell(px, py)], "a person is in no map"
+    x, y, theta, d = _facing(sim, world, floor, px, py)
+    pts = sim.lidar.scan(x, y, theta, sim.z)
+    pts = pts[np.abs(pts[:, 2]) < 0.3]
+    ahead = pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.02]
+    assert np.linalg.norm(ahead[:, :2], axis=1).min() == pytest.approx(
+        d - person["radius"], abs=0.05
+    )
+
+
+def _facing(sim: Simulation, world: Site, floor: str, px: float, py: float) -> tuple:
+    """Put the chair down facing the person at (px, py) from 1-2 m away, with nothing of
+    the world's map between them: its pose and distance."""
+    grid = world.floor(floor).map
+    occ = grid.occupied()
+    for d in (1.5, 1.2, 2.0, 1.0):
+        for k in range(16):
+            a = 2 * math.pi * k / 16
+            x, y = px + d * math.cos(a), py + d * math.sin(a)
+            line = [(x + (px - x) * t, y + (py - y) * t) for t in np.linspace(0.0, 1.0, 60)]
+            cells = [grid.to_cell(*q) for q in line]
+            if all(grid.contains(*c) and not occ[c] for c in cells) and sim.kidnap(
+                x, y, a + math.pi
+            ):
+                return x, y, a + math.pi, d
+    raise AssertionError(f"no free pose facing the person at ({px}, {py})")

@@ -47,6 +47,19 @@ def test_walking_into_the_chair_is_a_collision() -> None:
     assert hits >= 1
 
 
+def test_a_pedestrian_of_one_waypoint_stands_there_and_is_scanned() -> None:
+    """A generated world's people stand: one waypoint, no loop to walk."""
+    sim = sim_with("{waypoints: [[4, 2.7]], radius: 0.25}")
+    person = sim.pedestrians[0]
+    for _ in range(100):
+        r = sim.step()
+    assert person.position == (4.0, 2.7)
+    pts = r.scan[np.abs(r.scan[:, 2]) < 0.3]
+    ahead = pts[np.abs(np.arctan2(pts[:, 1], pts[:, 0])) < 0.02]
+    assert np.linalg.norm(ahead[:, :2], axis=1).min() == pytest.approx(2.5 - 0.25, abs=0.05)
+
+
 def test_bad_pedestrian_is_refused() -> None:
-    with pytest.raises(ValueError, match="waypoints"):
-        sim_with("{waypoints: [[1, 1]]}")
+    for bad in ("[]", "[[1, 1, 1]]"):
+        with pytest.raises(ValueError, match="waypoints"):
+            sim_with(f"{{waypoints: {bad}}}")

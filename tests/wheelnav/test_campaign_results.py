@@ -156,6 +156,7 @@ def test_the_geometry_says_what_differed_between_world_and_map() -> None:
         "furniture_removed_m2": [0.25],
         "walls_moved_m": [0.15],
         "walls_moved_length_m": [3.5],
+        "people_radius_m": [0.25, 0.25],
     }
     text = format_geometry([plain, {**plain, "world": world}])
     assert "world differs from the map (1 of 2 buildings)" in text
@@ -163,6 +164,7 @@ def test_the_geometry_says_what_differed_between_world_and_map() -> None:
     assert "0.20 m    2 ##" in text and "0.05 m    1 #" in text
     assert "furniture the map lacks: 2 (1.5 m2); mapped, not there: 1 (0.2 m2)" in text
     assert "walls moved: 1 (3.5 m of wall; by 0.15 m: 1)" in text
+    assert "people standing the map does not show: 2" in text
     assert "world" not in format_geometry([plain])
 
 
@@ -180,6 +182,7 @@ def test_world_differs_draws_buildings_of_their_own_whose_missions_name_the_worl
     assert "world" in building["built"].geometry
     for path in building["built"].scenarios:
         assert yaml.safe_load(path.read_text())["world_site"] == "../world"
+    assert "standing" in building["built"].world.summary()
 
 
 def test_the_localisation_at_doors_and_missions_lost_to_it_are_summed_up() -> None:

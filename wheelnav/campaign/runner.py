@@ -6,8 +6,9 @@ mission runs as ``wheelnav mission`` would run it, and its row is stored the mom
 ends, so a stopped campaign resumes where it stopped. The expected outcome of every
 mission comes from how its building was built, never from a run. With ``world_differs``
 the simulator builds a world that differs from the map the stack is given (doors moved,
-furniture added and removed, a wall moved); those buildings go into ``b<seed>w/``, so
-their rows never mix with those of the same seed's building drawn without it.
+furniture added and removed, a wall moved, people standing); those buildings go into
+``b<seed>w/``, so their rows never mix with those of the same seed's building drawn
+without it.
 """
 
 from __future__ import annotations
@@ -162,7 +163,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         "--world-differs",
         action="store_true",
         help="the simulator's world differs from the map: doors moved up to 0.20 m, "
-        "furniture added and removed, a wall moved (buildings b<seed>w)",
+        "furniture added and removed, a wall moved, people standing (buildings b<seed>w)",
     )
     p.set_defaults(run=_cli)
 

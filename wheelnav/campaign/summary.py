@@ -205,7 +205,8 @@ def format_geometry(geometry: list[dict[str, Any]]) -> str:
 
 def format_world(geometry: list[dict[str, Any]]) -> list[str]:
     """What the simulator's world had that the stack's map had not (``--world-differs``):
-    doors moved (how far), furniture added and removed, walls moved; nothing if none."""
+    doors moved (how far), furniture added and removed, walls moved, people standing;
+    nothing if none."""
     worlds = [g["world"] for g in geometry if "world" in g]
     if not worlds:
         return []
@@ -231,6 +232,7 @@ def format_world(geometry: list[dict[str, Any]]) -> list[str]:
     lines.append(
         f"    walls moved: {len(shifts)} ({sum(lengths):.1f} m of wall; by {moved or '-'})"
     )
+    lines.append(f"    people standing the map does not show: {len(values('people_radius_m'))}")
     return lines
 
 
