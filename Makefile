@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint format docs bench scenarios campaign clean
+.PHONY: demo test test-long test-all lint format docs bench scenarios campaign clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -17,7 +17,15 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/wheelnav mission scenarios/demo.yaml --report demo-report.json
 
+# make test leaves out the tests marked long (pyproject.toml): they take as long as the rest
+# together; make test-long runs only them, make test-all everything
 test: $(STAMP)
+	$(PY) -m pytest -q -m "not long"
+
+test-long: $(STAMP)
+	$(PY) -m pytest -q -m long
+
+test-all: $(STAMP)
 	$(PY) -m pytest -q
 
 lint: $(STAMP)

@@ -427,7 +427,10 @@ def test_killed_localisation_stops_the_chair_resumes_its_pose_and_the_mission_go
     assert done.state == "succeeded", done.reason
 
 
-@pytest.mark.parametrize("service", ["planner", "building"])
+@pytest.mark.parametrize(
+    "service",
+    [pytest.param("planner", marks=pytest.mark.long), "building"],  # the same restart path
+)
 def test_a_killed_service_off_the_control_path_is_restarted_and_the_mission_succeeds(
     fleet, service
 ) -> None:
@@ -444,7 +447,11 @@ def test_a_killed_service_off_the_control_path_is_restarted_and_the_mission_succ
 
 @pytest.mark.parametrize(
     "where, phase, how",
-    [("demo", "pass", "planning again"), ("two_floors", "ride", "riding on in the lift car")],
+    [
+        ("demo", "pass", "planning again"),
+        # the resumed ride: tests/services/navigator/test_resume.py; a lift: test_two_floors
+        pytest.param("two_floors", "ride", "riding on in the lift car", marks=pytest.mark.long),
+    ],
 )
 def test_a_killed_navigator_takes_the_mission_up_again(request, where, phase, how) -> None:
     # killed during a door pass: planned again from where the chair stopped; killed in a
@@ -494,6 +501,7 @@ def test_a_killed_navigator_takes_the_mission_up_again_on_wall_time(fleet_wall_t
 
 
 @pytest.mark.e2e
+@pytest.mark.long  # the same on the hardware path, drivers included: test_hardware_path.py
 @pytest.mark.parametrize("offset_s", [3600.0, -3600.0])
 def test_a_chair_whose_clock_is_an_hour_off_is_never_judged_stale(
     router, tmp_path, offset_s: float

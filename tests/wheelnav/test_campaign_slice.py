@@ -13,17 +13,28 @@ import io
 import json
 from pathlib import Path
 
+import pytest
+
 from wheelnav.campaign.runner import CampaignSpec, run
 
 SLICE = ("b0.m00_same_floor", "b0.m02_door_stuck_alt", "b1.m03_door_stuck_no_way")
 
 
-def test_a_slice_of_the_campaign_runs_as_expected_and_resumes(tmp_path: Path) -> None:
-    spec = CampaignSpec(out=tmp_path, buildings=2, seed=0, missions=8, only=SLICE)
+@pytest.mark.parametrize(
+    "only",
+    [
+        pytest.param(SLICE[:1], id="one"),  # make test: one mission of a generated building
+        pytest.param(SLICE, id="three", marks=pytest.mark.long),
+    ],
+)
+def test_a_slice_of_the_campaign_runs_as_expected_and_resumes(
+    tmp_path: Path, only: tuple[str, ...]
+) -> None:
+    spec = CampaignSpec(out=tmp_path, buildings=2, seed=0, missions=8, only=only)
     err, out = io.StringIO(), io.StringIO()
     result = run(spec, err=err, out=out)
     rows = {r["id"]: r for r in result["rows"]}
-    assert set(rows) == set(SLICE), err.getvalue()
+    assert set(rows) == set(only), err.getvalue()
     for mid, row in rows.items():
         assert row["as_expected"], f"{mid}: {row['outcome']} ({row['reason']})"
         assert row["collisions"] == 0, mid
@@ -34,5 +45,5 @@ def test_a_slice_of_the_campaign_runs_as_expected_and_resumes(tmp_path: Path) ->
     assert "geometry drawn" in out.getvalue() and "replay" not in out.getvalue()
     again = io.StringIO()
     second = run(spec, err=again, out=io.StringIO())
-    assert again.getvalue().count(": stored (") == len(SLICE)
+    assert again.getvalue().count(": stored (") == len(only)
     assert [r["outcome"] for r in second["rows"]] == [r["outcome"] for r in result["rows"]]
