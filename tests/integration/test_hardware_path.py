@@ -39,7 +39,7 @@ HARDWARE_PATH = [
 ]
 WAIT_S = 120.0  # for the run's router to come up
 RIDER = ["sim.riders=[{at_s: 4.0, for_s: 0.5, front: 40}]"]  # mid-corridor, driving
-STILL_MPS = 0.01
+STILL_MPS, STILL_RADPS = 0.01, 0.02
 HOLD_S = 3.0  # wall time the operator keeps the chair paused, then stopped
 
 
@@ -133,6 +133,11 @@ def test_the_demo_succeeds_through_the_drivers_an_hour_ahead() -> None:
     assert_driven_through_the_drivers(report, stamps, text, 3600.0)
 
 
+def still(t: Odometry) -> bool:
+    """The chair stands: neither drives nor turns."""
+    return abs(t.v) < STILL_MPS and abs(t.w) < STILL_RADPS
+
+
 def operate(stamps: Stamps) -> None:
     """The rider's pause, resumed by ``wheelnav resume``; then the emergency stop, set and
     cleared with ``wheelnav stop``: each asserted on the chair's true motion (times are
@@ -145,26 +150,28 @@ def operate(stamps: Stamps) -> None:
     time.sleep(HOLD_S)
     with stamps._lock:
         late = [m for a, m in stamps.truth if a > paused + 1.5]
-    assert late and all(abs(t.v) < STILL_MPS for t in late), ("the paused chair moved", late)
+    assert late and all(still(t) for t in late), ("the paused chair moved", late)
     resumed = wheelnav("resume", "--connect", stamps.endpoint(), "--timeout", "30")
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
-    moving = stamps.wait_for(
-        lambda tr, _s: next((a for a, t in tr if a > paused + HOLD_S and t.v > 0.2), None),
+    resumed_at = time.monotonic()
+    stamps.wait_for(
+        lambda tr, _s: next((a for a, t in tr if a > resumed_at and t.v > 0.2), None),
         60,
         "the chair did not drive on after wheelnav resume",
     )
     stop = wheelnav("stop", "--connect", stamps.endpoint(), "--timeout", "30")
     assert stop.returncode == 0, stop.stdout + stop.stderr
     assert "acknowledged by" in stop.stdout and "driver" in stop.stdout, stop.stdout
+    acknowledged = time.monotonic()  # the mission's own stops (a door's turn) came before
     stopped = stamps.wait_for(
-        lambda tr, _s: next((a for a, t in tr if a > moving and t.v < STILL_MPS), None),
+        lambda tr, _s: next((a for a, t in tr if a > acknowledged and still(t)), None),
         30,
         "the chair did not stop on the emergency stop",
     )
     time.sleep(HOLD_S)
     with stamps._lock:
         held = [m for a, m in stamps.truth if a > stopped + 0.5]
-    assert held and all(abs(t.v) < STILL_MPS for t in held), ("the stopped chair moved", held)
+    assert held and all(still(t) for t in held), ("the stopped chair moved", held)
     cleared = wheelnav("stop", "--clear", "--connect", stamps.endpoint(), "--timeout", "30")
     assert cleared.returncode == 0, cleared.stdout + cleared.stderr
 
