@@ -298,7 +298,7 @@ class Service:
             self.name, stage, rate_hz, step, lambda ack: self._publish_ack(ack_key, ack)
         )
         clock_key = self.declare("subscribes", self.keys.clock_of(stage))
-        self.bus.subscribe(clock_key, Clock, part.on_clock)
+        self.bus.subscribe(clock_key, Clock, part.on_clock, latest=True)
         return part
 
     def _publish_ack(self, key: str, ack: Ack) -> None:

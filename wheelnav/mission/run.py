@@ -178,7 +178,7 @@ class MissionRun:
             NAME, self._stage(), 10.0, self._step, lambda ack: bus.publish(keys.ack, ack)
         )
         self._bus = bus
-        bus.subscribe(keys.clock_of(self._stage()), Clock, participant.on_clock)
+        bus.subscribe(keys.clock_of(self._stage()), Clock, participant.on_clock, latest=True)
         bus.subscribe(keys.nav_status, NavStatus, self._on_status)
         bus.subscribe(keys.sim_status, SimStatus, self.recorder.on_sim_status)
         bus.subscribe(
