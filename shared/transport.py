@@ -128,22 +128,24 @@ class Bus:
         )
 
     def _latest_handler(self, deliver: Callable[[Any], None]) -> zenoh.handlers.Callback:
-        """A Zenoh callback that keeps only the newest item waiting: a subscriber that
-        falls behind takes up the newest, never a backlog (see :meth:`subscribe`)."""
+        """A Zenoh callback that queues each item in arrival order, as :meth:`_handler`
+        does, but delivers an item only if no newer one has arrived by then: a subscriber
+        that falls behind takes up the newest, in its place in the order, never a backlog
+        (see :meth:`subscribe`)."""
         lock = threading.Lock()
-        slot: list[Any] = [None]
+        newest = [0]  # the number of the latest arrival
 
-        def take() -> None:
+        def take(number: int, item: Any) -> None:
             with lock:
-                item, slot[0] = slot[0], None
-            if item is not None:
+                superseded = number != newest[0]
+            if not superseded:
                 deliver(item)
 
         def arrive(item: Any) -> None:
             with lock:
-                waiting, slot[0] = slot[0] is not None, item
-            if not waiting:
-                self._inbox.put((take, ()))
+                newest[0] += 1
+                number = newest[0]
+            self._inbox.put((take, (number, item)))
 
         return zenoh.handlers.Callback(arrive, None, indirect=False)
 
@@ -186,12 +188,14 @@ class Bus:
     ) -> None:
         """Call ``callback(msg)`` per valid message on ``key`` (any type if ``msg_type`` None).
 
-        With ``latest`` a message still waiting for delivery is replaced by a newer one
-        (one key per subscription: a wildcard would mix keys). For the tick announcements:
-        in lockstep one is outstanding per stage, so none is skipped; free running, a
-        participant the machine cannot keep up with steps on the newest tick instead of
-        working through a backlog whose stamps fall ever further behind (under a loaded
-        CI run the navigator judged the controller silent for 60 s and failed the demo)."""
+        With ``latest`` a message is skipped when a newer one has arrived before it is
+        delivered (one key per subscription: a wildcard would mix keys); what is delivered
+        keeps its place in the arrival order. For the tick announcements: in lockstep the
+        simulator waits for a participant's answer to a tick it is due at, so only ticks
+        it would ignore are skipped; free running, a participant the machine cannot keep
+        up with steps on the newest tick instead of working through a backlog whose stamps
+        fall ever further behind (under a loaded CI run the navigator judged the
+        controller silent for 60 s and failed the demo)."""
 
         def deliver(sample: zenoh.Sample) -> None:
             if sample.kind != zenoh.SampleKind.PUT:
