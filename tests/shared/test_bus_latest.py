@@ -4,22 +4,13 @@ takes up the newest message, never a backlog; one that keeps up gets every messa
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 
 from shared.config import TransportConfig
 from shared.messages import Clock
 from shared.transport import Bus, open_session
+from tests.shared.test_estop import wait_for
 
 KEY = "wheelnav/test/clock"
-
-
-def wait_for(predicate: Callable[[], bool], what: str, timeout_s: float = 30.0) -> None:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if predicate():
-            return
-        time.sleep(0.01)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def test_a_subscriber_that_falls_behind_takes_up_the_newest_tick(router) -> None:
