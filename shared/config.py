@@ -847,6 +847,13 @@ class RmfBridgeConfig:
     # `namespace`, e.g. /building1; empty: none) and, for rmw_zenoh, its ROS_DOMAIN_ID
     namespace: str = field(default="", metadata=check(_ros_namespace))
     domain_id: int = field(default=0, metadata=check(_ros_domain))
+    # with key_format rmw_zenoh, the attachment (sequence number, source timestamp, GID)
+    # each request carries, as the building's rmw_zenoh_cpp release reads it: "positional"
+    # (Humble 0.1.2+, Jazzy 0.2.4+, Kilted, Rolling 0.6.0+), "keyed" (Humble 0.1.0-0.1.1,
+    # Jazzy 0.2.0-0.2.3), "none"; services/rmf_bridge/attachment.py, docs/building-bridge.md
+    rmw_zenoh_attachment: str = field(
+        default="positional", metadata=_one_of("positional", "keyed", "none")
+    )
     # the building's names where they differ from the site's (site id -> Open-RMF name):
     # doors, lifts, and floors (the building's level names, in lift states and requests)
     door_names: dict[str, str] = field(default_factory=dict, metadata=check(_one_to_one))

@@ -6,7 +6,9 @@ DoorRequest and LiftRequest on ``door_request`` / ``lift_request`` go out as CDR
 building's ``adapter_door_requests`` / ``adapter_lift_requests``, and each CDR message on
 ``door_states`` / ``lift_states`` comes back as a DoorState / LiftState on ``door_state``
 / ``lift_state``. The Open-RMF topics are reached as zenoh-bridge-ros2dds or rmw_zenoh
-names them (``rmf_bridge.key_format``, ``rmf_bridge.namespace``, ``rmf_bridge.domain_id``).
+names them (``rmf_bridge.key_format``, ``rmf_bridge.namespace``, ``rmf_bridge.domain_id``);
+on rmw_zenoh keys each request carries the attachment rmw_zenoh_cpp's subscribers expect
+(``rmf_bridge.rmw_zenoh_attachment``: services/rmf_bridge/attachment.py).
 Only the site's doors with a controller and its lifts, only this chair's requests
 (services/rmf_bridge/bridge.py). A request the chair stops renewing is ended when its lease
 runs out (``building.door_session_lease_s``, ``building.lift_session_lease_s``), and
@@ -23,6 +25,7 @@ import time
 
 import zenoh
 
+from services.rmf_bridge.attachment import NONE, AttachmentWriter
 from services.rmf_bridge.bridge import Outgoing, RmfBridge
 from services.rmf_bridge.endpoints import NAME, PUBLISHES, ROS_PUBLISHES, ROS_SUBSCRIBES, SUBSCRIBES
 from services.rmf_bridge.errors import KINDS, BridgeError, UnknownName
@@ -98,9 +101,13 @@ def main(argv: list[str] | None = None) -> None:
             )
             for t in ROS_PUBLISHES
         }
+        # rmw_zenoh_cpp's subscribers drop a sample without its attachment; each publisher
+        # numbers its own samples under a GID of its own, as rmw_zenoh_cpp's do
+        layout = section.rmw_zenoh_attachment if section.key_format == "rmw_zenoh" else NONE
+        attachments = {t: AttachmentWriter(layout) for t in ROS_PUBLISHES}
 
         def send(out: Outgoing) -> None:
-            publishers[out.topic].put(out.payload)
+            publishers[out.topic].put(out.payload, attachment=attachments[out.topic].next())
             if out.why:
                 svc.log.warning("let go for the chair: %s", out.why)
 
@@ -164,11 +171,15 @@ def main(argv: list[str] | None = None) -> None:
         for name in PUBLISHES:
             svc.declare("publishes", keys.key(name))
         svc.log.info(
-            "%d doors, %d lifts of site %s; building keys: %s",
+            "%d doors, %d lifts of site %s; building keys: %s, attachment: %s%s",
             len(bridge.doors),
             len(bridge.lifts),
             cfg.site,
             section.key_format,
+            layout,
+            "".join(f", {t.name} GID {a.gid.hex()}" for t, a in attachments.items())
+            if layout != NONE
+            else "",
         )
         svc.every(section.lease_check_hz, check_leases)
         try:

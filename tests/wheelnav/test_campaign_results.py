@@ -216,3 +216,9 @@ def test_the_localisation_at_doors_and_missions_lost_to_it_are_summed_up() -> No
     text = format_figures(f)
     assert "missions lost to it 1" in text and "over 5 cm 1" in text
     assert figures([rows[2]], 1)["door_loc_error"] is None
+
+
+def test_the_time_ratio_is_taken_against_the_first_route() -> None:
+    # a re-plan from near the goal leaves a short last route: not the mission's ideal
+    row = judge(scenario(), report(True, planned_length_m=1.0, first_planned_length_m=10.0))
+    assert row["time_ratio"] == 2.0

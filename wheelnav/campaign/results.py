@@ -67,7 +67,7 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
         if d["door"] not in tight_doors and _below(d, "outline_clearance_m", "outline_required_m")
     ]
     away = report.get("min_clearance_away_m")
-    planned = report.get("planned_length_m")
+    planned = report.get("first_planned_length_m") or report.get("planned_length_m")
     ratio = None
     if report["success"] and planned:
         ratio = round(report["sim_time_s"] / (planned / CRUISE_SPEED_M_S), 3)

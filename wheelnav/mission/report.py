@@ -90,6 +90,7 @@ class Recorder:
     away_at: list[float] = field(default_factory=list)
     door_clearance: dict[str, DoorClearance] = field(default_factory=dict)
     planned_length_m: float | None = None  # of the route driven last
+    first_planned_length_m: float | None = None  # of the first route: the mission's ideal
     path_length_m: float = 0.0
     phases: list[Phase] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
@@ -186,12 +187,19 @@ class Recorder:
         }
 
     def on_route(self, route: RouteReply) -> None:
-        """A route about to be driven: its planned length (legs plus door passes)."""
+        """A route about to be driven: its planned length (legs plus door passes).
+
+        The first route's length is kept apart: a re-plan starts wherever the chair stands
+        (after a recovery, near the goal), so the last route's length says little about
+        how long the mission should have taken.
+        """
         if self.finished:
             return
         legs = sum(_polyline_length(leg.waypoints) for leg in route.legs)
         passes = sum(c.pass_distance_m for c in route.checkpoints if c.kind == "door")
         self.planned_length_m = legs + passes
+        if self.first_planned_length_m is None:
+            self.first_planned_length_m = self.planned_length_m
 
     def on_truth(
         self,
@@ -298,6 +306,9 @@ class Recorder:
             "planned_length_m": None
             if self.planned_length_m is None
             else round(self.planned_length_m, 3),
+            "first_planned_length_m": None
+            if self.first_planned_length_m is None
+            else round(self.first_planned_length_m, 3),
             "sim_time_s": round(self.sim_time_s, 3),
             "wall_time_s": round(wall_time_s, 3),
             "path_length_m": round(self.path_length_m, 3),

@@ -2,7 +2,8 @@
 building's key comes out as wheelnav's DoorState, a wheelnav DoorRequest goes out as a CDR
 DoorRequest for the chair, a malformed payload is counted and the bridge goes on, and what
 the chair still holds is let go when the bridge stops; every key it declares is one a
-secured router lets it use. Its config errors name the key."""
+secured router lets it use. On rmw_zenoh keys each request carries rmw_zenoh_cpp's
+attachment, numbered per publisher. Its config errors name the key."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import pytest
 import zenoh
 
 from services.rmf_bridge import cdr
+from services.rmf_bridge.attachment import parse
 from services.rmf_bridge.node import make_bridge
 from services.rmf_bridge.ros_keys import (
     DOOR_REQUESTS,
@@ -103,6 +105,32 @@ def secured_allows(action: str, key: str) -> bool:
     return any(zenoh.KeyExpr(k).includes(zenoh.KeyExpr(key)) for k in rules[action])
 
 
+def run_bridge(endpoint: str, *settings: str) -> subprocess.Popen:
+    """The bridge's node for chair1 on the two-floor site, connected to ``endpoint``."""
+    args = ["--connect", endpoint, "--robot", "chair1", "--set", "clock=wall"]
+    args += ["--set", f"site={SITE}", "--set", f"rmf_bridge.namespace=/{NAMESPACE}"]
+    for setting in settings:
+        args += ["--set", setting]
+    return subprocess.Popen(
+        [sys.executable, "-m", "services.rmf_bridge.node", *args],
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def stop(proc: subprocess.Popen) -> str:
+    """Stop the node as the launcher does; its log."""
+    proc.terminate()
+    try:
+        _out, err = proc.communicate(timeout=WAIT_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        _out, err = proc.communicate(timeout=WAIT_S)
+    assert proc.returncode == 0, err
+    return err
+
+
 @pytest.mark.parametrize("key_format", ["ros2dds", "rmw_zenoh"])
 def test_the_node_bridges_both_ways_and_survives_bad_input(router, key_format: str) -> None:
     bus, endpoint = router
@@ -117,16 +145,12 @@ def test_the_node_bridges_both_ways_and_survives_bad_input(router, key_format: s
     for topic in (DOOR_REQUESTS, LIFT_REQUESTS):
         bus.subscribe_raw(building[topic], lambda k, p: to_building.put((k, p)))
     bus.watch_alive(keys.key("alive", service="rmf_bridge"), lambda _k, up: up and alive.set())
-    args = ["--connect", endpoint, "--robot", "chair1", "--set", "clock=wall"]
-    args += ["--set", f"site={SITE}", "--set", f"rmf_bridge.namespace=/{NAMESPACE}"]
-    args += ["--set", "rmf_bridge.door_names={d1_lab_1: Door_L1_lab}"]
-    args += ["--set", "rmf_bridge.floor_names={'1': L1, '2': L2}"]
-    args += ["--set", f"rmf_bridge.key_format={key_format}", "--set", "rmf_bridge.domain_id=3"]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "services.rmf_bridge.node", *args],
-        cwd=ROOT,
-        stderr=subprocess.PIPE,
-        text=True,
+    proc = run_bridge(
+        endpoint,
+        "rmf_bridge.door_names={d1_lab_1: Door_L1_lab}",
+        "rmf_bridge.floor_names={'1': L1, '2': L2}",
+        f"rmf_bridge.key_format={key_format}",
+        "rmf_bridge.domain_id=3",
     )
     try:
         assert alive.wait(WAIT_S), "the bridge never announced itself"
@@ -164,13 +188,7 @@ def test_the_node_bridges_both_ways_and_survives_bad_input(router, key_format: s
             "L2",
         )
     finally:
-        proc.terminate()
-        try:
-            _out, err = proc.communicate(timeout=WAIT_S)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            _out, err = proc.communicate(timeout=WAIT_S)
-    assert proc.returncode == 0, err
+        err = stop(proc)
     # stopping, it let go of what the chair held: the door, then the lift session
     released = [to_building.get(timeout=WAIT_S) for _ in range(2)]
     door = cdr.decode(released[0][1], cdr.DOOR_REQUEST)
@@ -186,6 +204,81 @@ def test_the_node_bridges_both_ways_and_survives_bad_input(router, key_format: s
     assert building[DOOR_REQUESTS] in keys["publishes"]
     assert [k for k in keys["publishes"] if not secured_allows("publish", k)] == []
     assert [k for k in keys["subscribes"] if not secured_allows("read", k)] == []
+
+
+@pytest.mark.parametrize(
+    ("key_format", "layout"),
+    [("rmw_zenoh", "positional"), ("rmw_zenoh", "keyed"), ("ros2dds", "positional")],
+)
+def test_requests_carry_rmw_zenohs_attachment_numbered_per_publisher(
+    router, key_format: str, layout: str
+) -> None:
+    """On rmw_zenoh keys each request carries the attachment of the configured layout:
+    sequence numbers 1, 2, ... per publisher, one GID per publisher (the one the log
+    names), the wall clock; on zenoh-bridge-ros2dds keys, none."""
+    bus, endpoint = router
+    building = building_keys(key_format)
+    keys = Keys("chair1")
+    samples: queue.Queue[tuple[str, bytes | None]] = queue.Queue()
+    alive = threading.Event()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        attachment = sample.attachment
+        samples.put((str(sample.key_expr), None if attachment is None else attachment.to_bytes()))
+
+    subscribers = [
+        bus.session.declare_subscriber(building[t], on_sample)
+        for t in (DOOR_REQUESTS, LIFT_REQUESTS)
+    ]
+    bus.watch_alive(keys.key("alive", service="rmf_bridge"), lambda _k, up: up and alive.set())
+    proc = run_bridge(
+        endpoint,
+        f"rmf_bridge.key_format={key_format}",
+        "rmf_bridge.domain_id=3",
+        f"rmf_bridge.rmw_zenoh_attachment={layout}",
+    )
+    got: list[tuple[str, bytes | None]] = []
+    try:
+        assert alive.wait(WAIT_S), "the bridge never announced itself"
+        door_key = keys.key("door_request", door="d1_lab_1")
+        started = time.time_ns()
+        for _ in range(2):  # an open request and its renewal
+            bus.publish(door_key, DoorRequest(time.time(), "chair1", "d1_lab_1", DoorMode.OPEN))
+            got.append(samples.get(timeout=WAIT_S))
+        call = LiftRequest(
+            time.time(), "lift_a", "chair1-g1", LiftRequestType.AGV_MODE, "2", LiftDoor.OPEN
+        )
+        bus.publish(keys.key("lift_request", lift="lift_a"), call)
+        got.append(samples.get(timeout=WAIT_S))
+    finally:
+        err = stop(proc)
+    got += [samples.get(timeout=WAIT_S) for _ in range(2)]  # let go of: the door, the lift
+    stopped = time.time_ns()
+    for subscriber in subscribers:
+        subscriber.undeclare()
+    door, lift = building[DOOR_REQUESTS], building[LIFT_REQUESTS]
+    assert [key for key, _ in got] == [door, door, lift, door, lift]
+    if key_format == "ros2dds":
+        assert [a for _, a in got] == [None] * 5
+        assert "attachment: none" in err
+        return
+    assert None not in [a for _, a in got], "a request without its attachment"
+    read = [(key, parse(a, layout)) for key, a in got]
+    assert [(key, a.sequence_number) for key, a in read] == [
+        (door, 1),
+        (door, 2),
+        (lift, 1),
+        (door, 3),
+        (lift, 2),
+    ]
+    door_gids = {a.gid for key, a in read if key == door}
+    lift_gids = {a.gid for key, a in read if key == lift}
+    assert len(door_gids) == len(lift_gids) == 1 and door_gids != lift_gids
+    (door_gid,), (lift_gid,) = door_gids, lift_gids
+    assert f"attachment: {layout}, adapter_door_requests GID {door_gid.hex()}" in err
+    assert f"adapter_lift_requests GID {lift_gid.hex()}" in err
+    stamps = [a.source_timestamp for _, a in read]
+    assert started <= stamps[0] and stamps[-1] <= stopped and stamps == sorted(stamps)
 
 
 @pytest.mark.parametrize(

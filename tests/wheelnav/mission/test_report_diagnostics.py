@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from shared.messages import Diagnostics, KeyCounters, NavStatus
+import numpy as np
+
+from shared.messages import Diagnostics, KeyCounters, NavStatus, Path, RouteReply
 from wheelnav.mission.report import Recorder, format_report
 
 
@@ -37,3 +39,16 @@ def test_a_report_without_diagnostics_still_formats() -> None:
     report = Recorder("g").report("demo", 1.0)
     assert report["diagnostics"] == {}
     assert "diagnostics" not in format_report(report)
+
+
+def test_the_first_routes_length_is_kept_past_a_re_plan() -> None:
+    rec = Recorder("g")
+
+    def leg(x0: float) -> Path:
+        return Path(0.0, "leg", "1", np.array([(x0, 0.0), (10.0, 0.0)]), np.array([0.5, 0.0]))
+
+    rec.on_route(RouteReply(True, legs=[leg(0.0)]))
+    rec.on_route(RouteReply(True, legs=[leg(8.0)]))  # after a recovery near the goal
+    report = rec.report("demo", 1.0)
+    assert report["first_planned_length_m"] == 10.0
+    assert report["planned_length_m"] == 2.0
