@@ -15,15 +15,17 @@ LEB128 length then its bytes). Two layouts were released:
   later (#605), Humble 0.1.2 and later (#606).
 * ``keyed``: each field after its name as a string, ``"sequence_number"``,
   ``"source_timestamp"``, ``"source_gid"`` (the GID as a 16-byte buffer): 77 bytes. Jazzy
-  0.2.0 to 0.2.3, Humble 0.1.0 and 0.1.1, rolling before 0.6.0.
+  0.2.0 to 0.2.3, Humble 0.1.0 and 0.1.1, rolling from the Zenoh 1.0 port (#276) to #601.
 
 The two are not compatible: a subscriber of one release rejects, or misreads, the other's.
 The GID is 16 bytes in every release: Humble's ``RMW_GID_STORAGE_SIZE`` is 24, but
 rmw_zenoh's Humble branch hard-codes 16 (ros2/rmw_zenoh#388).
 
 Encoded with zenoh-python's own serializer (:func:`zenoh.ext.z_serialize`), so the bytes
-are those of the C++ one; a plain ``int`` would go out as int32, hence ``Int64``. Pure but
-for :class:`AttachmentWriter`'s clock and random GID.
+are those of the C++ one; a plain ``int`` would go out as int32, hence ``Int64``. Read back
+(:func:`parse`) by a reader of the same format that checks every length first, where
+zenoh-python's ``z_deserialize`` would not. Pure but for :class:`AttachmentWriter`'s clock
+and random GID.
 """
 
 from __future__ import annotations
@@ -34,8 +36,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import zenoh
-from zenoh.ext import Int64, ZDeserializeError, z_deserialize, z_serialize
+from zenoh.ext import Int64, z_serialize
 
 POSITIONAL = "positional"
 KEYED = "keyed"
@@ -78,27 +79,66 @@ def build(sequence_number: int, source_timestamp: int, gid: bytes, layout: str) 
 def parse(data: bytes, layout: str) -> Attachment:
     """The fields of attachment ``data`` written in ``layout``; ValueError with one line if
     it is not one (another layout, too short, bytes left over, a GID not of 16 bytes)."""
+    if layout not in (POSITIONAL, KEYED):
+        raise ValueError(f"attachment layout {layout!r}: use {POSITIONAL} or {KEYED}")
+    reader = _Reader(bytes(data))
     try:
-        if layout == POSITIONAL:
-            seq, stamp, gid = z_deserialize(tuple[Int64, Int64, bytes], zenoh.ZBytes(data))
-        elif layout == KEYED:
-            k1, seq, k2, stamp, k3, gid = z_deserialize(
-                tuple[str, Int64, str, Int64, str, bytes], zenoh.ZBytes(data)
-            )
-            if (k1, k2, k3) != KEYS:
-                raise ValueError(f"not a keyed attachment: its keys are {k1!r}, {k2!r}, {k3!r}")
-        else:
-            raise ValueError(f"attachment layout {layout!r}: use {POSITIONAL} or {KEYED}")
-    except ZDeserializeError:
-        raise ValueError(f"not a {layout} attachment ({len(data)} bytes)") from None
-    if len(gid) != GID_SIZE:
-        raise ValueError(f"a {layout} attachment with a GID of {len(gid)} bytes, not {GID_SIZE}")
-    out = Attachment(int(seq), int(stamp), bytes(gid))
-    # zenoh-python's z_deserialize leaves bytes after the last field unread, unlike Rust's
-    extra = len(data) - len(build(out.sequence_number, out.source_timestamp, out.gid, layout))
-    if extra:
-        raise ValueError(f"not a {layout} attachment ({len(data)} bytes): {extra} bytes left over")
-    return out
+        if layout == KEYED:
+            reader.key(KEYS[0])
+        seq = reader.int64()
+        if layout == KEYED:
+            reader.key(KEYS[1])
+        stamp = reader.int64()
+        if layout == KEYED:
+            reader.key(KEYS[2])
+        gid = reader.sized()
+        if len(gid) != GID_SIZE:
+            raise ValueError(f"a GID of {len(gid)} bytes, not {GID_SIZE}")
+        if reader.left():
+            raise ValueError(f"{reader.left()} bytes left over")
+    except ValueError as exc:
+        raise ValueError(f"not a {layout} attachment ({len(data)} bytes): {exc}") from None
+    return Attachment(seq, stamp, gid)
+
+
+class _Reader:
+    """Reads the Zenoh serialization format, every length checked against what is left
+    before anything is taken: zenoh-python's ``z_deserialize`` (1.10) sets aside whatever
+    length a prefix claims, so a malformed attachment can abort the process, out of memory."""
+
+    def __init__(self, data: bytes) -> None:
+        self._data = data
+        self._at = 0
+
+    def left(self) -> int:
+        return len(self._data) - self._at
+
+    def take(self, n: int) -> bytes:
+        if n > self.left():
+            raise ValueError(f"too short for {n} more bytes at byte {self._at}")
+        self._at += n
+        return self._data[self._at - n : self._at]
+
+    def int64(self) -> int:
+        return int.from_bytes(self.take(8), "little", signed=True)
+
+    def sized(self) -> bytes:
+        """A string or byte sequence: its LEB128 length, then its bytes."""
+        n = shift = 0
+        while True:
+            byte = self.take(1)[0]
+            n |= (byte & 0x7F) << shift
+            if byte < 0x80:
+                return self.take(n)
+            shift += 7
+            if shift > 63:
+                raise ValueError("a length of more than 64 bits")
+
+    def key(self, name: str) -> None:
+        """The keyed layout's name of the next field."""
+        found = self.sized()
+        if found != name.encode():
+            raise ValueError(f"{name!r} expected, found {found!r}")
 
 
 class AttachmentWriter:
@@ -106,9 +146,9 @@ class AttachmentWriter:
     them: sequence numbers 1, 2, ... (one per sample), the wall clock in ns, one GID.
 
     rmw_zenoh_cpp gives each publisher its own GID (a hash of its liveliness token's key,
-    random in its earliest releases); the bridge holds no token, so each of its publishers
-    takes 16 random bytes when it starts. A restarted bridge thus counts from 1 under a new
-    GID, which a subscriber takes for a new publisher rather than for lost messages.
+    random in earlier versions of its source); the bridge holds no token, so each of its
+    publishers takes 16 random bytes when it starts. A restarted bridge thus counts from 1
+    under a new GID, which a subscriber takes for a new publisher, not for lost messages.
     Layout ``none``: no attachment (:meth:`next` gives None).
     """
 

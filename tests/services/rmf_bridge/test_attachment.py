@@ -14,10 +14,13 @@ and before it (keyed, with ze_serializer_serialize_str / _int64 / _buf).
 from __future__ import annotations
 
 import pytest
+import zenoh
+from zenoh.ext import Int64, z_deserialize
 
 from services.rmf_bridge.attachment import (
     GID_SIZE,
     KEYED,
+    KEYS,
     LAYOUTS,
     NONE,
     POSITIONAL,
@@ -60,6 +63,16 @@ def test_the_attachment_is_byte_for_byte_rmw_zenohs(layout: str) -> None:
 @pytest.mark.parametrize("layout", [POSITIONAL, KEYED])
 def test_an_attachment_reads_back(layout: str) -> None:
     assert parse(EXPECTED[layout], layout) == Attachment(SEQ, STAMP, GID)
+    # as zenoh's own deserializer reads it (on good bytes only: see attachment._Reader)
+    kinds = {
+        POSITIONAL: tuple[Int64, Int64, bytes],
+        KEYED: tuple[str, Int64, str, Int64, str, bytes],
+    }
+    fields = z_deserialize(kinds[layout], zenoh.ZBytes(EXPECTED[layout]))
+    if layout == KEYED:
+        assert fields[0::2] == KEYS
+        fields = fields[1::2]
+    assert fields == (SEQ, STAMP, GID)
     # int64 throughout: a number past int32, a timestamp of today, both ends of int64
     for seq, stamp in [(2**40 + 3, 1_760_000_000_123_456_789), (2**63 - 1, -(2**63))]:
         assert parse(build(seq, stamp, GID, layout), layout) == Attachment(seq, stamp, GID)
@@ -75,9 +88,13 @@ def test_what_is_not_an_attachment_of_the_layout_is_refused(layout: str) -> None
     short_gid = good[: -len(GID_SEQUENCE)] + b"\x0f" + GID[:15]
     with pytest.raises(ValueError, match="GID of 15 bytes"):
         parse(short_gid, layout)
+    # a length prefix claiming far more than there is (2**62): refused, nothing set aside
+    huge = good[: -len(GID_SEQUENCE)] + b"\x80\x80\x80\x80\x80\x80\x80\x80\x40" + GID
+    with pytest.raises(ValueError, match="too short"):
+        parse(huge, layout)
     if layout == KEYED:
         renamed = good.replace(b"source_gid", b"source_gif")
-        with pytest.raises(ValueError, match="keys are"):
+        with pytest.raises(ValueError, match="'source_gid' expected, found b'source_gif'"):
             parse(renamed, layout)
 
 
