@@ -215,7 +215,7 @@ def _leaf_along(gap_m: float, toward_deg: float) -> np.ndarray:
     a = np.radians(toward_deg)
     xs = np.arange(0.0, fp.front + 0.8, 0.01)
     ys = fp.width / 2 + gap_m - (xs - fp.front) * np.tan(a)
-    return pts(*zip(xs, ys))
+    return pts(*zip(xs, ys, strict=True))
 
 
 def test_a_precise_pass_steering_away_from_a_leaf_it_heads_towards_is_not_stopped() -> None:
