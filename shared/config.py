@@ -704,7 +704,10 @@ class LauncherConfig:
     restart_backoff_s: float = field(default=0.5, metadata=check(_positive))
     restart_backoff_max_s: float = field(default=10.0, metadata=check(_positive))
     restart_reset_after_s: float = field(default=30.0, metadata=check(_positive))
-    ready_timeout_s: float = field(default=60.0, metadata=check(_positive))
+    # how long `wheelnav up` and a mission wait for every service's liveliness token: a first
+    # start on a fresh install compiles the numba kernels (24 s on an idle 2-core machine,
+    # over 60 s beside a loaded CI run; `wheelnav warm` does it ahead)
+    ready_timeout_s: float = field(default=120.0, metadata=check(_positive))
 
 
 # ---- the real chair's drivers (the hardware profile) ----------------------------------

@@ -46,7 +46,7 @@ def wheelnav(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
 
 
 def start_up(
-    *args: str, ready_s: float = 60
+    *args: str, ready_s: float = 180
 ) -> tuple[subprocess.Popen, list[str], threading.Thread]:
     """Start ``wheelnav up ARGS`` and wait (at most ``ready_s``) until it says "fleet up";
     its output lines gather in the list, read by the thread."""

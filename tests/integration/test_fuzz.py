@@ -31,7 +31,7 @@ from shared import config as config_mod
 from shared import messages as m
 from shared.codec import DecodeError, decode, encode
 from shared.topics import TOPICS, Keys
-from tests.integration.test_fleet import DEMO, Capture
+from tests.integration.test_fleet import DEMO, READY_S, Capture
 from tests.shared.test_codec import samples
 from wheelnav.launcher.fleet import services_for
 from wheelnav.launcher.supervisor import Supervisor, wait_ready
@@ -233,7 +233,7 @@ def running_fleet(router, tmp_path):
     sup = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
     sup.start()
     try:
-        missing = wait_ready(bus, Keys(cfg.robot.name), [s.name for s in specs], 90)
+        missing = wait_ready(bus, Keys(cfg.robot.name), [s.name for s in specs], READY_S)
         assert not missing, out.text()[-3000:]
         yield bus, sup, Keys(cfg.robot.name), scenario, out, [s.name for s in specs]
     finally:

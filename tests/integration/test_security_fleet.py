@@ -19,7 +19,7 @@ def test_a_secured_fleet_runs_an_operators_mission_and_refuses_others(tmp_path) 
     made = wheelnav("security", "init", keys)
     assert made.returncode == 0, made.stdout + made.stderr
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    up, lines, reader = start_up("--listen", endpoint, "--security", keys, ready_s=180)
+    up, lines, reader = start_up("--listen", endpoint, "--security", keys)
     try:
         assert any("fleet up" in ln for ln in lines), "".join(lines)
         assert any("secured: mutual TLS" in ln for ln in lines)
