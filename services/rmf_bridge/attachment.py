@@ -21,8 +21,9 @@ The two are not compatible: a subscriber of one release rejects, or misreads, th
 The GID is 16 bytes in every release: Humble's ``RMW_GID_STORAGE_SIZE`` is 24, but
 rmw_zenoh's Humble branch hard-codes 16 (ros2/rmw_zenoh#388).
 
-Encoded with zenoh-python's own serializer (:func:`zenoh.ext.z_serialize`), so the bytes
-are those of the C++ one; a plain ``int`` would go out as int32, hence ``Int64``. Read back
+Written here, in a few lines, rather than with zenoh-python's ``zenoh.ext.z_serialize``:
+only node modules import zenoh (wheelnav/import_rules.py), and the tests check these bytes
+against ``z_serialize``'s (with ``Int64``: a plain ``int`` goes out as int32 there). Read back
 (:func:`parse`) by a reader of the same format that checks every length first, where
 zenoh-python's ``z_deserialize`` would not. Pure but for :class:`AttachmentWriter`'s clock
 and random GID.
@@ -35,8 +36,6 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-
-from zenoh.ext import Int64, z_serialize
 
 POSITIONAL = "positional"
 KEYED = "keyed"
@@ -66,14 +65,28 @@ def build(sequence_number: int, source_timestamp: int, gid: bytes, layout: str) 
     for name, value in (("sequence number", sequence_number), ("timestamp", source_timestamp)):
         if not INT64_MIN <= value <= INT64_MAX:
             raise ValueError(f"{name} {value} is not an int64")
-    seq, stamp = Int64(sequence_number), Int64(source_timestamp)
-    if layout == POSITIONAL:
-        fields: tuple = (seq, stamp, bytes(gid))
-    elif layout == KEYED:
-        fields = (KEYS[0], seq, KEYS[1], stamp, KEYS[2], bytes(gid))
-    else:
+    if layout not in (POSITIONAL, KEYED):
         raise ValueError(f"attachment layout {layout!r}: use {POSITIONAL} or {KEYED}")
-    return z_serialize(fields).to_bytes()
+    keyed = layout == KEYED
+    out = bytearray()
+    for key, value in zip(KEYS, (sequence_number, source_timestamp), strict=False):
+        if keyed:
+            out += _sized(key.encode())
+        out += value.to_bytes(8, "little", signed=True)
+    if keyed:
+        out += _sized(KEYS[2].encode())
+    out += _sized(bytes(gid))
+    return bytes(out)
+
+
+def _sized(data: bytes) -> bytes:
+    """A string or byte sequence in the Zenoh serialization format: LEB128 length, bytes."""
+    n, head = len(data), bytearray()
+    while True:
+        byte, n = n & 0x7F, n >> 7
+        head.append(byte | (0x80 if n else 0))
+        if not n:
+            return bytes(head) + data
 
 
 def parse(data: bytes, layout: str) -> Attachment:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import pytest
 import zenoh
-from zenoh.ext import Int64, z_deserialize
+from zenoh.ext import Int64, z_deserialize, z_serialize
 
 from services.rmf_bridge.attachment import (
     GID_SIZE,
@@ -58,6 +58,19 @@ def test_the_attachment_is_byte_for_byte_rmw_zenohs(layout: str) -> None:
     data = build(SEQ, STAMP, GID, layout)
     assert data == EXPECTED[layout]
     assert len(data) == {POSITIONAL: 33, KEYED: 77}[layout]
+
+
+@pytest.mark.parametrize("layout", [POSITIONAL, KEYED])
+def test_the_attachment_is_what_zenohs_own_serializer_writes(layout: str) -> None:
+    # attachment.py writes the format itself (only node modules import zenoh): the same
+    # bytes as z_serialize, here also for a GID whose bytes pass 0x7f and a negative stamp
+    gid = bytes(range(0xF0, 0x100))
+    for seq, stamp in [(SEQ, STAMP), (2**40 + 3, -5), (2**63 - 1, -(2**63))]:
+        ours = build(seq, stamp, gid, layout)
+        fields = (Int64(seq), Int64(stamp), gid)
+        if layout == KEYED:
+            fields = (KEYS[0], fields[0], KEYS[1], fields[1], KEYS[2], gid)
+        assert ours == z_serialize(fields).to_bytes(), (seq, stamp)
 
 
 @pytest.mark.parametrize("layout", [POSITIONAL, KEYED])
