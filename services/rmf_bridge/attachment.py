@@ -22,7 +22,7 @@ The GID is 16 bytes in every release: Humble's ``RMW_GID_STORAGE_SIZE`` is 24, b
 rmw_zenoh's Humble branch hard-codes 16 (ros2/rmw_zenoh#388).
 
 Written here, in a few lines, rather than with zenoh-python's ``zenoh.ext.z_serialize``:
-only node modules import zenoh (wheelnav/import_rules.py), and the tests check these bytes
+only node modules may use zenoh (wheelnav/import_rules.py), and the tests check these bytes
 against ``z_serialize``'s (with ``Int64``: a plain ``int`` goes out as int32 there). Read back
 (:func:`parse`) by a reader of the same format that checks every length first, where
 zenoh-python's ``z_deserialize`` would not. Pure but for :class:`AttachmentWriter`'s clock
