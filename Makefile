@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test test-long test-all lint format docs bench scenarios campaign clean
+.PHONY: demo test test-long test-all warm lint format docs bench scenarios campaign clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -27,6 +27,11 @@ test-long: $(STAMP)
 
 test-all: $(STAMP)
 	$(PY) -m pytest -q
+
+# compile every numba kernel into its cache (__pycache__ beside the sources): a first start
+# on a fresh clone otherwise compiles them inside the services' start-up (~25 s)
+warm: $(STAMP)
+	$(PY) -m wheelnav.warm
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -543,3 +543,28 @@ class MultiRingLidar:
 def _require(ok: bool, name: str, rule: str, value: object) -> None:
     if not ok:
         raise LidarConfigError(f"{name}: must be {rule}, got {value!r}")
+
+
+def warm_up() -> None:
+    """Compile (or load) the grid kernels now, not in the simulator's first scan: one scan
+    by :meth:`MultiRingLidar.scan` (the simulator's own call) of a 1 x 1 m walled storey
+    with a box standing in it (the beams that cross the box go through
+    ``_beams_through_boxes``), in a pybullet client of its own."""
+    cells = np.zeros((10, 10), dtype=np.int8)
+    cells[[0, -1], :] = cells[:, [0, -1]] = 100
+    client = pb.connect(pb.DIRECT)
+    try:
+        box = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.1] * 3, physicsClientId=client)
+        pb.createMultiBody(0, box, basePosition=[0.3, 0.0, 0.5], physicsClientId=client)
+        lidar = MultiRingLidar(
+            client,
+            rings=2,
+            azimuth_step_deg=90.0,
+            height_m=0.5,
+            noise_m=0.01,
+            rng=np.random.default_rng(0),
+            static_maps={0.0: GridMap(cells, 0.1, (-0.5, -0.5, 0.0))},
+        )
+        lidar.scan(0.0, 0.0, 0.0)
+    finally:
+        pb.disconnect(physicsClientId=client)

@@ -12,6 +12,7 @@ wheelnav security init DIR | add | show  credentials for a secured fleet (docs/s
 wheelnav bench planner [--json]          performance figures against a named peer
 wheelnav plan MAP --start X,Y --goal X,Y  a route on a map, without the fleet (--json, --png)
 wheelnav rooms MAP [--floor F]           a floor's rooms and doors (--json, --png)
+wheelnav warm                            compile the numba kernels before a first start
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     from wheelnav import mission_api
     from wheelnav import stop as stop_cli
+    from wheelnav import warm as warm_cli
     from wheelnav.bench import cli as bench_cli
     from wheelnav.campaign import runner as campaign_runner
     from wheelnav.launcher import cli as launcher_cli
@@ -50,6 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     campaign_runner.add_commands(sub)
     maptools_cli.add_commands(sub)
     security_cli.add_commands(sub)
+    warm_cli.add_commands(sub)
     raw = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(raw)
     args.raw_argv = raw  # for commands that hand their flags on to a service as given

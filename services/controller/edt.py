@@ -28,6 +28,14 @@ def distance_transform(free: np.ndarray) -> np.ndarray:
     return _transform(grid)
 
 
+def warm_up() -> None:
+    """Compile (or load) the transform's kernels now, not in the first control cycle with
+    LiDAR points: a 2 x 2 grid, C-contiguous bool as ``mpc_scene.obstacle_field`` passes."""
+    free = np.ones((2, 2), dtype=np.bool_)
+    free[0, 0] = False
+    distance_transform(free)
+
+
 @numba.njit(cache=True)
 def _columns(free: np.ndarray) -> np.ndarray:
     """Squared distance along each column to the nearest occupied cell (_INF if none);

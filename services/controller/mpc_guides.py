@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 
 def guide_rollout(state, limits, pxy, ps, plen, vtab, vtab_ds, lookahead, offset, out):
@@ -78,3 +79,21 @@ def guide_rollout(state, limits, pxy, ps, plen, vtab, vtab_ds, lookahead, offset
 
 
 guide_rollout_nb = numba.njit(cache=True, fastmath=True)(guide_rollout)
+
+
+def warm_up() -> None:
+    """Compile (or load) ``guide_rollout_nb`` now, not in the first MPC cycle: a two-point
+    path with the argument types ``SamplingMPC._guide`` passes (float64 state, limits, path
+    window and speed table, float scalars, a float32 (T, 2) row of the nominal inputs)."""
+    guide_rollout_nb(
+        np.zeros(5),
+        np.array([0.2, -0.3, 1.0, 1.0, 0.1, 0.2]),
+        np.array([[0.0, 0.0], [1.0, 0.0]]),
+        np.array([0.0, 1.0]),
+        np.array([1.0]),
+        np.array([0.3, 0.3, 0.0]),
+        0.5,
+        0.8,
+        0.0,
+        np.empty((3, 2), dtype=np.float32),
+    )

@@ -26,8 +26,19 @@ from services.controller.mpc_costs import (
     TRACK,
     TURN,
     WALL,
+    weights,
 )
-from services.controller.mpc_scene import EMPTY, FAR, Body, Field, Scene, slack
+from services.controller.mpc_scene import (
+    EMPTY,
+    FAR,
+    Body,
+    Field,
+    Scene,
+    footprint_body,
+    slack,
+    wall_field,
+)
+from shared.config import Footprint, MPCConfig
 
 
 def evaluate(
@@ -86,6 +97,47 @@ def evaluate(
 
 
 _NO_OFFSETS = np.zeros((1, 1, 2), dtype=np.float32)
+
+
+def warm_up() -> None:
+    """Compile (or load) the kernel now, not in the first control cycle: 4 samples of 3
+    steps on a two-point path beside a 4 x 4 wall field, built as ``SamplingMPC`` builds
+    them (float32 inputs and fields, float64 scene arrays, int64 groups, bool flags). A
+    cycle with or without walls, LiDAR points or offsets passes these same types."""
+    samples, steps = 4, 3
+    scene = Scene(
+        state=np.zeros(5),
+        limits=np.array([0.2, -0.3, 1.0, 1.0, 0.1, 0.2]),
+        sigma=np.array([0.1, 0.1, 0.5]),
+        wall=wall_field(np.ones((4, 4)), 0.5, (-1.0, -1.0)),
+        obs=None,
+        path_xy=np.array([[0.0, 0.0], [1.0, 0.0]]),
+        path_s=np.array([0.0, 1.0]),
+        path_len=np.array([1.0]),
+        path_cos=np.array([1.0]),
+        path_sin=np.array([0.0]),
+        vtab=np.array([0.3, 0.3, 0.0]),
+        vtab_ds=0.5,
+        goal=np.array([1.0, 0.0]),
+        goal_on=True,
+        params=np.zeros(10),
+        s_exp=np.zeros(steps),
+        s_wt=np.array([0.5, 1.5]),
+        weights=weights(MPCConfig()),
+    )
+    u = np.zeros((samples, steps, 2), dtype=np.float32)
+    evaluate(
+        footprint_body(Footprint(), 0.2, 0.1),
+        scene,
+        np.zeros_like(u),
+        np.zeros((1, steps, 2), dtype=np.float32),
+        np.zeros(samples, dtype=np.int64),
+        None,
+        u,
+        np.empty(samples),
+        np.empty(samples, dtype=np.bool_),
+        0,
+    )
 
 
 def _geometry(f: Field) -> np.ndarray:

@@ -275,9 +275,7 @@ class MapLocaliser:
         """Compile the search now: a first search in a mission would otherwise hold a
         lockstep tick (or the wall-time step) for the compile."""
         if self.settings.relocalise:
-            ring = np.linspace(0.0, 2 * math.pi, 64, endpoint=False)
-            pts = np.column_stack([3 * np.cos(ring), 3 * np.sin(ring)])
-            self._relocaliser().search(pts, self.pose, SearchBounds(0.2, 0.1))
+            self._relocaliser().warm_up(self.pose)
 
     def _relocaliser(self) -> Relocaliser:
         """The search on this floor's field (built once per field)."""

@@ -55,6 +55,7 @@ import numpy as np
 
 from services.localisation.matcher import DistanceField, Match, match_scan
 from shared.geometry import angle_between, wrap_angle
+from shared.site import GridMap
 
 MAX_LEVEL = 7  # the largest block: 2^7 search cells a side (12.8 m at 10 cm)
 MIN_ANGLE_STEP_RAD = math.radians(0.2)
@@ -304,6 +305,15 @@ class Relocaliser:
         guesses = [(self.xs[c], self.ys[r], wrap_angle(angles[k])) for r, c, k in taken]
         return self._judge(self._refine(points, guesses), int(evals), settled, bounds)
 
+    def warm_up(self, prior: Pose) -> None:
+        """One small search around ``prior`` (a ring of points 3 m off, within 0.2 m and
+        0.1 rad), so that numba compiles (or loads) the search's kernels now: a first
+        search in a mission would otherwise hold a lockstep tick (or the wall-time step)
+        for the compile. A prior with no free cell within 0.2 m compiles nothing."""
+        ring = np.linspace(0.0, 2 * math.pi, 64, endpoint=False)
+        pts = np.column_stack([3 * np.cos(ring), 3 * np.sin(ring)])
+        self.search(pts, prior, SearchBounds(0.2, 0.1))
+
     def relocalise(
         self,
         points: np.ndarray,
@@ -442,3 +452,13 @@ def widening_bounds(
         if radius >= whole:
             return steps
         radius, heading = radius * 2, heading * 2
+
+
+def warm_up() -> None:
+    """Compile (or load) the search's kernels ahead of the localisation (``wheelnav warm``):
+    :meth:`Relocaliser.warm_up`, the localisation's own warm-up, in the middle of a 6.2 m
+    square room (its ring of points then lies on the walls, and the refinement is sound)."""
+    cells = np.zeros((62, 62), dtype=np.int8)
+    cells[[0, -1], :] = cells[:, [0, -1]] = 100
+    field = DistanceField(GridMap(cells, 0.1, (0.0, 0.0, 0.0)))
+    Relocaliser(field).warm_up((3.1, 3.1, 0.0))

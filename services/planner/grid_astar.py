@@ -306,6 +306,13 @@ def astar(
     return path
 
 
+def warm_up() -> None:
+    """Compile (or load) the search kernel now, not in the first plan: one plan on a 3 x 3
+    grid. Every call (plans with or without costs and landmarks, the landmarks' Dijkstra)
+    passes the same argument types, so this one signature is the planner's."""
+    astar(np.zeros((3, 3), dtype=bool), (0, 0), (2, 2))
+
+
 def path_cost(path: np.ndarray, cell_cost: np.ndarray | None = None) -> float:
     """The cost of a cell path under the same model (in cells)."""
     path = np.asarray(path)

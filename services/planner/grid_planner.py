@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from services.planner import errors
+from services.planner import errors, grid_astar
 from services.planner.grid_astar import Landmarks, NoPathError, astar
 from services.planner.inflation import inflate, obstacle_distance
 from shared.config import PlannerConfig, RobotConfig
@@ -59,7 +59,7 @@ class Planner:
         self.robot = robot
         self.radius = inflation_radius(robot, cfg)
         self._floors: dict[str, _FloorGrid] = {}
-        astar(np.zeros((3, 3), dtype=bool), (0, 0), (2, 2))  # compile (or load) the JIT now
+        grid_astar.warm_up()  # compile (or load) the JIT now
         for name, floor in site.floors.items():
             occ = with_open_leaves(floor.map.occupied(cfg.unknown_is_occupied), site, name)
             lethal, cost = inflate(occ, floor.map.resolution, self.radius, cfg.cost_band_m)
