@@ -6,9 +6,7 @@ point lies in the stop zone: the strip in front of the footprint (behind it when
 reversing), as wide as the chair plus ``robot.side_margin_m`` each side (in a precise pass
 or docking ``controller.precise_side_margin_m``: beside an 0.80 m door an open leaf leaves
 the chair 3-5 cm a side, and the wide strip caught it on every tick; the arc check below
-keeps the same margin; at speed a precise pass's strip is the chair's own width, its margin
-kept by the arc check along the commanded arc, since a chair a degree off towards a leaf
-and steering back saw the leaf's face enter the strip ahead). Its length grows
+keeps the same margin). Its length grows
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
 proportion below, never under ``stop_min_distance_m`` nor under the braking distance plus
 that; a docking crawl next to a wall
@@ -163,15 +161,11 @@ def guard(
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
     margin = cfg.precise_side_margin_m if precise else robot.side_margin_m
-    turning = abs(v) < cfg.turn_check_below_mps
-    # a precise pass at speed keeps its margin along the arc it is commanded to drive (below):
-    # a straight strip that wide took an open leaf's face ahead for something in the way
-    # while the chair, a degree or two off towards it, was steering back
-    strip_margin = 0.0 if precise and not turning else margin
-    half = robot.footprint.width / 2 + strip_margin
+    half = robot.footprint.width / 2 + margin
     length = stop_zone_length(v, robot, cfg)
     if stop_zone_hit(scan_points, robot, v, length, band_m, half):
         return 0.0, 0.0, "obstacle"
+    turning = abs(v) < cfg.turn_check_below_mps
     if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin):
         return 0.0, 0.0, "obstacle"
     angle = min(np.radians(cfg.turn_check_deg), abs(w) * cfg.turn_check_s)

@@ -205,36 +205,3 @@ def test_the_guard_decides_the_same_on_guard_points_as_on_the_whole_scan() -> No
         assert whole == kept
         stops += whole[2] == "obstacle"
     assert 30 < stops < 270  # both answers were exercised
-
-
-def _leaf_along(gap_m: float, toward_deg: float) -> np.ndarray:
-    """An open leaf's face beside the left of a chair in a doorway: parallel to the door's
-    axis, ``gap_m`` from the chair's side at its front, the chair heading ``toward_deg``
-    towards it; points from the front's level to 0.8 m beyond, robot frame."""
-    fp = ROBOT.footprint
-    a = np.radians(toward_deg)
-    xs = np.arange(0.0, fp.front + 0.8, 0.01)
-    ys = fp.width / 2 + gap_m - (xs - fp.front) * np.tan(a)
-    return pts(*zip(xs, ys, strict=True))
-
-
-def test_a_precise_pass_steering_away_from_a_leaf_it_heads_towards_is_not_stopped() -> None:
-    """Bench 0.80 m hinged, smooth pass (session 17): past the door plane the chair, 2 deg
-    off towards the open leaf 2.2 cm beside its front, steered back, and the straight strip
-    (``precise_side_margin_m`` wider than the chair a side) still took the leaf's face ahead
-    for something in the way; the guard held the chair there and recoveries could not back
-    it out between the jambs. In a precise pass at speed the margin is kept along the arc
-    the chair is commanded to drive (the arc check), and the straight strip is only the
-    chair's own width: steering away goes on, driving on towards the leaf still stops."""
-    leaf = _leaf_along(0.022, 2.0)
-    ok = dict(now=10.0, pose_ok=True, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5)
-    precise = dict(precise=True, **ok)
-    assert guard(0.2, 0.0, "following", scan_points=leaf, **precise)[2] == "obstacle"
-    assert guard(0.2, 0.1, "following", scan_points=leaf, **precise)[2] == "obstacle"  # more
-    assert guard(0.2, -0.15, "following", scan_points=leaf, **precise)[2] == "following"
-    # a leaf face it runs parallel to, 2.2 cm off, is no obstacle either way
-    assert guard(0.2, 0.0, "following", scan_points=_leaf_along(0.022, 0.0), **precise)[2] == (
-        "following"
-    )
-    # not in a precise pass, the chair keeps robot.side_margin_m: held as before
-    assert guard(0.2, -0.15, "following", scan_points=leaf, **ok)[2] == "obstacle"
