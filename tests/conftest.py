@@ -65,3 +65,15 @@ def start_up(
         assert up.poll() is None, "".join(lines)
         time.sleep(0.1)
     return up, lines, reader
+
+
+def stop_node(proc: subprocess.Popen, timeout: float) -> str:
+    """Stop a service started on its own as the launcher does (SIGTERM, then SIGKILL if it
+    outlasts ``timeout``); its stderr."""
+    proc.terminate()
+    try:
+        _out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        _out, err = proc.communicate(timeout=timeout)
+    return err

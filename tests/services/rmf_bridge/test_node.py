@@ -43,7 +43,7 @@ from shared.messages import (
 )
 from shared.topics import TOPICS as WHEELNAV_TOPICS
 from shared.topics import Keys
-from tests.conftest import ROOT
+from tests.conftest import ROOT, stop_node
 from wheelnav.security.acl import SERVICE, Identity, grants
 
 WAIT_S = 60.0  # for any event: generous, the machine may be loaded
@@ -121,12 +121,7 @@ def run_bridge(endpoint: str, *settings: str) -> subprocess.Popen:
 
 def stop(proc: subprocess.Popen) -> str:
     """Stop the node as the launcher does; its log."""
-    proc.terminate()
-    try:
-        _out, err = proc.communicate(timeout=WAIT_S)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        _out, err = proc.communicate(timeout=WAIT_S)
+    err = stop_node(proc, WAIT_S)
     assert proc.returncode == 0, err
     return err
 

@@ -29,6 +29,7 @@ from sim import vlp16_packets as vp
 from sim.lidar3d import MultiRingLidar
 from sim.sitegen import draw
 from sim.world import World
+from tests.conftest import stop_node
 
 ROOT = Path(__file__).resolve().parents[3]
 WAIT_S = 60.0  # for any event: generous, the machine may be loaded
@@ -234,12 +235,7 @@ def test_the_node_publishes_a_revolution_on_scan(router, sim_scans: list[np.ndar
         assert cloud.stamp == pytest.approx(time.time() + 3600, abs=60)
         assert_matches_sim(cloud.points, sim_scans[1])
     finally:
-        proc.terminate()
-        try:
-            _out, err = proc.communicate(timeout=WAIT_S)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            _out, err = proc.communicate(timeout=WAIT_S)
+        err = stop_node(proc, WAIT_S)
     assert proc.returncode == 0, err
     assert "dropped malformed packet (1 so far): 12 bytes, not 1206" in err
     assert "75 packets, 1 malformed, 1 revolutions published, 0 dropped" in err
