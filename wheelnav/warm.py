@@ -5,7 +5,8 @@ and cached beside their sources (``__pycache__/*.nbi``, ``*.nbc``; under
 ``NUMBA_CACHE_DIR`` if set). On a fresh clone, install or image that first fleet start spent
 ~25 s compiling (idle 2-core machine; over 60 s on a loaded one, past the launcher's
 readiness wait). This command calls each kernel module's ``warm_up()`` ahead of it (the
-services call the same functions at start), so the services load their kernels instead.
+planner, the localisation and the controller warm theirs at start too, but only the
+simulator's first scan compiles its LiDAR kernels), so the services load them instead.
 
 The cache holds the sources it was built from (a file edited since is compiled again) and
 the CPU it was built on: run it in the tree the services import, on their machine

@@ -67,16 +67,14 @@ def build(sequence_number: int, source_timestamp: int, gid: bytes, layout: str) 
             raise ValueError(f"{name} {value} is not an int64")
     if layout not in (POSITIONAL, KEYED):
         raise ValueError(f"attachment layout {layout!r}: use {POSITIONAL} or {KEYED}")
-    keyed = layout == KEYED
-    out = bytearray()
-    for key, value in zip(KEYS, (sequence_number, source_timestamp), strict=False):
-        if keyed:
-            out += _sized(key.encode())
-        out += value.to_bytes(8, "little", signed=True)
-    if keyed:
-        out += _sized(KEYS[2].encode())
-    out += _sized(bytes(gid))
-    return bytes(out)
+    fields = (
+        sequence_number.to_bytes(8, "little", signed=True),
+        source_timestamp.to_bytes(8, "little", signed=True),
+        _sized(bytes(gid)),
+    )
+    if layout == KEYED:  # each field after its name
+        return b"".join(_sized(k.encode()) + f for k, f in zip(KEYS, fields, strict=True))
+    return b"".join(fields)
 
 
 def _sized(data: bytes) -> bytes:
