@@ -189,3 +189,28 @@ def test_a_narrow_door_in_open_space_gets_the_preferred_poses(
     cfg = PlannerConfig()
     assert 5.0 - cp.approach[0] == pytest.approx(cfg.door_standoff_m, abs=0.06)
     assert cp.exit[0] - 5.0 == pytest.approx(cfg.door_exit_m, abs=0.06)
+
+
+def test_an_obstacle_the_map_lacks_moves_the_approach_pose(tmp_path: Path) -> None:
+    # world-differs campaign b7002w.m05: a cupboard the map lacks stood beside a hall
+    # door's approach pose (behind the sweep of a leaf opening towards the chair), 1.5 cm
+    # into the chair's strip there; Phase 0 found no manoeuvre to the pose (three
+    # attempts) and the mission failed. The points a failed Phase 0 marks come with the
+    # re-plan: the pose is fitted to the space they leave.
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5), (4.9, 0, 5.1, 5)]
+    gaps = [(4.9, 2.0, 5.1, 3.0)]
+    keys = {"d": {"motion": "hinged", "swing": "left"}}
+    site = make_site(tmp_path, walls, gaps, [("d", (5.0, 2.0), (5.0, 3.0))], (10, 5), keys)
+    routes = routes_for(site)
+    (mapped,) = routes.route((1.0, 2.5), "1", (8.5, 2.5), "1").checkpoints
+    fp = ROBOT.footprint
+    assert not mapped.in_sweep and mapped.approach[0] - fp.rear < 2.75  # beside the cupboard
+    # the cupboard's edge, as a scan shows it: x 2.0-2.75 along y = 2.86
+    cupboard = [(float(x), 2.86, "1") for x in np.arange(2.0, 2.76, 0.05)]
+    (moved,) = routes.request((1.0, 2.5), "1", (8.5, 2.5), "1", blocked=cupboard).checkpoints
+    assert moved.approach[0] - fp.rear >= 2.75 + 0.05  # the rear clear of the cupboard
+    assert moved.approach[0] + fp.front <= 5.0  # the front short of the door plane
+    assert moved.in_sweep  # no room behind the leaf's sweep now
+    (again,) = routes.route((1.0, 2.5), "1", (8.5, 2.5), "1").checkpoints
+    assert again.approach == mapped.approach  # the marks held for that request only
