@@ -345,6 +345,10 @@ class RoutePlanner:
                 leaf = other.open_leaf()
                 if leaf is not None:
                     block_segment(occ, grid, leaf[0], leaf[1], grid.resolution)
+        # and what held the chair there, which the map lacks (world-differs campaign
+        # b7002w.m05: a cupboard beside the approach pose; Phase 0 found no way to it)
+        for p in self._points.get(floor, ()):
+            block_segment(occ, grid, p, p, grid.resolution / 2)
         fp = self.planner.robot.footprint
         room = PoseRoom(
             fp.front,
