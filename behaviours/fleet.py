@@ -86,6 +86,11 @@ class Fleet(Protocol):
         """Remember the scan points just ahead of the chair as obstacles for the route
         requests of this mission (a re-plan goes around them); how many were marked."""
 
+    def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
+        """Remember the scan points inside the chair's footprint (its clearance width),
+        grown by ``margin_m``, as it would stand at ``pose`` (x, y, heading; map frame), as
+        :meth:`mark_blocking` does: what kept a docking from its pose; how many."""
+
     def hold_door_open(self, door_id: str) -> None:
         """Ask a door the chair has passed to stay open (a lease renewal) without dropping
         its :meth:`close_door_when_clear`."""

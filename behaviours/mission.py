@@ -57,6 +57,7 @@ from behaviours.door_fix import DoorFix
 from behaviours.elevator import ReleaseLift, RequestLift, SetFloor, WaitForLift
 from behaviours.fleet import NS, FleetBehaviour
 from behaviours.motion import DockAt, DriveThrough, FollowPath, StopChair
+from behaviours.recovery import HandToRecoveries
 from behaviours.safety import SafetyGate
 from behaviours.timeouts import Timeout
 from shared.config import FleetConfig, NavigatorConfig
@@ -293,7 +294,9 @@ def _correct(
     dock = _approach_dock(cp, nav, f"Correct {cp.id}")
     limit = nav.correction_timeout_s
     if reach_m > 0:
-        return Timeout(name, dock, limit + _drive_s(nav, reach_m), clock, record)
+        return _or_recover(
+            Timeout(name, dock, limit + _drive_s(nav, reach_m), clock, record), dock, nav
+        )
 
     def round_about() -> float:
         """Starting more than MANOEUVRE_TURN off the approach heading, a small room may
@@ -304,7 +307,21 @@ def _correct(
             return _drive_s(nav, left)
         return nav.manoeuvre_allowance_s if dock.heading_off_rad() > MANOEUVRE_TURN else 0.0
 
-    return Timeout(name, dock, limit, clock, record, extra=round_about)
+    return _or_recover(Timeout(name, dock, limit, clock, record, extra=round_about), dock, nav)
+
+
+def _or_recover(
+    step: py_trees.behaviour.Behaviour, dock: DockAt, nav: NavigatorConfig
+) -> py_trees.behaviour.Behaviour:
+    """``step`` (a bounded docking before a door or a lift) with the navigator's recoveries
+    as its fallback (:class:`~behaviours.recovery.HandToRecoveries`), where there are
+    any (``navigator.max_recoveries``)."""
+    if nav.max_recoveries <= 0:
+        return step
+    hand_over = HandToRecoveries(f"{step.name}: recover", dock, nav.position_tolerance_m)
+    return py_trees.composites.Selector(
+        f"{step.name} or recover", memory=True, children=[step, hand_over]
+    )
 
 
 def _door_steps(
@@ -447,11 +464,21 @@ def _line_up(cp, p: EntryParams, clock, record, fix: DoorFix) -> py_trees.behavi
     dock = _approach_dock(cp, nav, f"Realign {cp.id}", fix)
     turn = _turn_to_exit(cp, nav, f"Turn again {cp.id}", fix)
     limit = nav.correction_timeout_s
+
+    def sideways() -> float:
+        """A door seen further along its wall than the position tolerance: the chair
+        moves sideways, which a chair that cannot slide does by a manoeuvre (back, turn,
+        forward: world-differs campaign b7000w.m08, 0.195 m, ran out of 20 s): its
+        allowance."""
+        shift = math.hypot(*fix.shift)
+        return nav.manoeuvre_allowance_s if shift > nav.position_tolerance_m else 0.0
+
+    realign = Timeout(f"Phase 0 again {cp.id}", dock, limit, clock, record, extra=sideways)
     again = py_trees.composites.Sequence(
         f"Realign {cp.id} on the door seen",
         memory=True,
         children=[
-            Timeout(f"Phase 0 again {cp.id}", dock, limit, clock, record),
+            _or_recover(realign, dock, nav),
             Timeout(f"Phase 1 again {cp.id}", turn, limit, clock, record),
         ],
     )

@@ -244,6 +244,11 @@ class DockAt(FleetBehaviour):
             dock_path(self._path_id, self.floor, x, y, h, self.speed, self._keep_out)
         )
 
+    @property
+    def goal(self) -> tuple[float, float, float]:
+        """The pose (x, y, heading) it docks at, as set when it last started."""
+        return self._goal
+
     def heading_off_rad(self) -> float:
         """How far the pose estimate faces from the goal heading now (0: turning to face a
         point, or no estimate)."""

@@ -24,13 +24,40 @@ from collections.abc import Callable
 
 import numpy as np
 import py_trees
-from py_trees.common import Status
+from py_trees.common import Access, Status
 
 from behaviours.fleet import FleetBehaviour
 from behaviours.motion import DockAt
 from behaviours.timeouts import Timeout
 from shared.config import NavigatorConfig
 from shared.messages import Path, Phase
+
+
+class HandToRecoveries(FleetBehaviour):
+    """The fallback of a docking before a door or a lift (Phase 0) that failed: where the
+    world differs from the map (a cupboard the map lacks beside the approach pose, a door
+    that stands 0.2 m from where the map puts it), moving away and planning again may
+    clear what a docking on the spot cannot.
+
+    Marks the scan points in the way of the docking's pose (its footprint grown by
+    ``margin_m``: the position tolerance it was checked against), names the failure in
+    ``/mission/recover`` and fails, so the navigator runs its recoveries (back up, turn,
+    re-plan with the points marked: the planner fits the door's poses to the space they
+    leave) instead of ending the mission; bounded by the navigator's recovery counts.
+    """
+
+    def __init__(self, name: str, dock: DockAt, margin_m: float) -> None:
+        super().__init__(name)
+        self.dock, self.margin_m = dock, margin_m
+        self.bb.register_key("recover", access=Access.WRITE)
+
+    def update(self) -> Status:
+        failure = self.bb.failure or f"{self.dock.name} failed"
+        marked = self.fleet.mark_in_footprint(self.dock.goal, self.margin_m)
+        self.fleet.event("fallback", f"{failure}: recover ({marked} points in the way marked)")
+        self.feedback_message = f"handed to the recoveries: {failure}"
+        self.bb.recover = failure
+        return Status.FAILURE
 
 
 class BackUp(FleetBehaviour):

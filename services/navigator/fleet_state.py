@@ -205,6 +205,30 @@ class FleetState:
         del self.blocking[:-400]
         return len(near)
 
+    def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
+        if self._scan is None or self._pose is None:
+            return 0
+        pts = self._band()[:, :2].astype(float)
+        p = self._pose.pose
+        c, s = math.cos(p.theta), math.sin(p.theta)
+        world = np.column_stack(
+            [p.x + c * pts[:, 0] - s * pts[:, 1], p.y + s * pts[:, 0] + c * pts[:, 1]]
+        )
+        x, y, th = pose
+        d = world - (x, y)
+        along = d[:, 0] * math.cos(th) + d[:, 1] * math.sin(th)
+        across = -d[:, 0] * math.sin(th) + d[:, 1] * math.cos(th)
+        inside = (
+            (along >= -self.rear_m - margin_m)
+            & (along <= self.front_m + margin_m)
+            & (np.abs(across) <= self.half_width_m + margin_m)
+        )
+        near = world[inside]
+        near = near[:: max(1, len(near) // 60)]  # at most about 60 points, as a hold marks
+        self.blocking.extend((float(px), float(py), p.floor) for px, py in near)
+        del self.blocking[:-400]
+        return len(near)
+
     def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
         self.untraversed.extend((float(x), float(y), floor) for x, y in points)
         del self.untraversed[:-400]

@@ -62,6 +62,7 @@ class ScriptedFleet:
         self.avoided: set[str] = set()
         self.turn_room = True
         self.marked = 0
+        self.marked_at: list[tuple[tuple[float, float, float], float]] = []
         self.turning = 0.0  # the turn rate odometry reports (rad/s): a chair at work
         self.forgotten = 0
         self.untraversed: list[tuple[str, np.ndarray]] = []  # (floor, points) marked
@@ -149,6 +150,10 @@ class ScriptedFleet:
     def mark_blocking(self) -> int:
         self.marked += 1
         return 3
+
+    def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
+        self.marked_at.append((pose, margin_m))
+        return 2
 
     def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
         self.untraversed.append((floor, points))

@@ -40,9 +40,10 @@ def grow(root, fleet):
 
 def blackboard():
     bb = py_trees.blackboard.Client(name="test", namespace="/mission")
-    for key in ("goal", "place", "failure", "phase", "route", "blocked"):
+    for key in ("goal", "place", "failure", "phase", "route", "blocked", "recover"):
         bb.register_key(key, access=py_trees.common.Access.WRITE)
     bb.goal, bb.place, bb.failure, bb.phase, bb.blocked = None, "room_b", "", "", ""
+    bb.recover = ""
     return bb
 
 
@@ -194,6 +195,33 @@ def test_position_correction_retries_then_gives_up_with_the_error() -> None:
         tree.tick()
     assert tree.root.status == Status.FAILURE
     assert "not within 0.15 m / 5 deg after 3 attempts (0.300 m" in bb.failure
+
+
+@pytest.mark.parametrize("recoveries", [3, 0])
+def test_a_failed_position_correction_hands_over_to_the_recoveries(recoveries: int) -> None:
+    # world-differs campaign b7002w.m05: a cupboard the map lacks beside the approach
+    # pose; Phase 0 found no manoeuvre to it and the mission ended. Now the points in the
+    # way of the pose are marked and the navigator's recoveries (back up, turn, re-plan
+    # with them marked) take over; without recoveries configured the mission ends as
+    # before.
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    tree = route_tree(ROUTE, fleet, max_recoveries=recoveries)
+    tree.tick()
+    fleet.arrive()
+    tree.tick()
+    for _ in range(3):
+        fleet.arrive(off=(0.3, 0.0))
+        tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert "Correct d1: not within 0.15 m" in bb.failure
+    if recoveries:
+        assert bb.recover == bb.failure
+        a = ROUTE.checkpoints[0].approach
+        assert fleet.marked_at == [((a.x, a.y, a.theta), NavigatorConfig().position_tolerance_m)]
+        assert any(k == "fallback" and "recover" in d for k, d in fleet.events)
+    else:
+        assert bb.recover == "" and fleet.marked_at == []
 
 
 def test_position_correction_that_stops_converging_fails_early() -> None:
@@ -826,6 +854,37 @@ def test_stop_turn_go_lines_up_on_the_door_the_scans_show() -> None:
     passing_path = fleet.sent[-1]
     assert passing_path.path_id == "r.door.d1"
     assert passing_path.waypoints[:, 1] == pytest.approx(0.10)
+
+
+def test_a_realign_sideways_gets_a_manoeuvre_s_time_then_hands_over() -> None:
+    # world-differs campaign b7000w.m08: the door stood 0.195 m along its wall from where
+    # the map has it; the re-dock (a manoeuvre: back, turn, forward) ran out of Phase 0's
+    # 20 s and the mission ended. A shift beyond the position tolerance gets the
+    # manoeuvre's allowance, and a realign that still fails hands over to the recoveries.
+    bb = blackboard()
+    fleet = ScriptedFleet(None)
+    cp = door()
+    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
+    tree = route_tree(route(cp), fleet)
+    to_the_door(tree, fleet)
+    fleet.doors["d1"] = DoorMode.OPEN
+    fleet.doorways = [(2.02, 0.195, math.pi / 2, 0.8)]
+    for _ in range(3):
+        tree.tick()
+    located(tree)
+    assert fleet.sent[-1].path_id == "Realign d1 #1"
+    nav = NavigatorConfig()
+    limit = nav.correction_timeout_s + nav.manoeuvre_allowance_s
+    fleet.turning = 0.3  # at work on the manoeuvre: not stalled
+    fleet.t += limit - 1.0
+    tree.tick()
+    assert tree.root.status == Status.RUNNING, bb.failure
+    fleet.t += 2.0
+    tree.tick()
+    assert tree.root.status == Status.FAILURE
+    assert bb.failure == f"Realign d1: timed out after {limit:g} s"
+    assert bb.recover == bb.failure
+    assert fleet.marked_at[-1][0] == (1.0, pytest.approx(0.195), 0.0)
 
 
 def test_a_door_seen_where_the_map_has_it_is_passed_without_lining_up_again() -> None:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 
 from services.navigator.fleet_state import UNUSABLE_WHY, FleetState
 from shared.config import DoorCheckConfig, FleetConfig
@@ -106,6 +109,26 @@ def test_marked_blocking_points_go_into_the_next_route_request() -> None:
     fleet.forget_blocking()
     req = fleet.route_request(None, "room_b")
     assert req.blocked == [] and req.untraversed == []
+
+
+def test_points_in_the_way_of_a_docking_pose_are_marked() -> None:
+    # a Phase 0 that failed marks what stands in the footprint (grown by the position
+    # tolerance) at the pose it docked at, not what stands ahead of the chair
+    from shared.messages import PointCloud, Pose2D, PoseEstimate
+
+    fleet = state()
+    fleet.on_pose(PoseEstimate(1.0, Pose2D(2.0, 1.0, math.pi / 2, "1"), np.eye(3)))
+    # sensor frame (x ahead = +y on the map): a cupboard's edge 0.5 m to the chair's left
+    # (map x 1.5), from 0.2 m behind to 1.0 m ahead; a far wall 3 m ahead
+    edge = [[a, 0.5, 0.0] for a in np.linspace(-0.2, 1.0, 13)]
+    wall = [[3.0, b, 0.0] for b in np.linspace(-0.3, 0.3, 7)]
+    fleet.on_scan(PointCloud(1.0, "lidar", np.array(edge + wall, np.float32)))
+    # standing at (2.0, 1.5): the edge is 0.125 m beside its clearance width (0.375 m)
+    assert fleet.mark_in_footprint((2.0, 1.5, math.pi / 2), 0.0) == 0
+    assert fleet.mark_in_footprint((2.0, 1.5, math.pi / 2), 0.15) == 11  # from its rear on
+    req = fleet.route_request(None, "room_b")
+    assert {round(b.x, 3) for b in req.blocked} == {1.5}
+    assert min(b.y for b in req.blocked) == pytest.approx(1.0)
 
 
 def test_a_powered_door_is_closed_only_once_its_leaf_cannot_reach_the_chair() -> None:
