@@ -35,7 +35,7 @@ from behaviours.fleet import NS, Fleet
 from behaviours.mission import EntryParams, create_plan_tree, create_route_tree, route_steps
 from behaviours.motion import FollowPath
 from behaviours.recovery import create_recovery_tree
-from behaviours.safety import PauseGate
+from behaviours.safety import RECOVERABLE, PauseGate
 from behaviours.snapshot import signature, snapshot
 from services.navigator.holds import MOVED_M, Holds, moved_m
 from services.navigator.leases import Leases
@@ -444,7 +444,11 @@ class Navigator:
             return
         self.recoveries += 1
         self.recoveries_in_all += 1
-        marked = self.fleet.mark_blocking()
+        # a hold marks what stands in the band ahead and behind; a step's hand-over (a
+        # docking that failed) has marked what stood in its way itself, and the band ahead
+        # of a chair docking before a door holds the door's jambs and open leaf, which
+        # would shut the door's approach (world-differs campaign b7002w.m05)
+        marked = self.fleet.mark_blocking() if cause in RECOVERABLE else 0
         # the phase the hold came in (the failed tree's stop step has set its own since)
         following = self.status.phase == Phase.FOLLOW
         stretch = self._mark_untraversed(est) if following else 0

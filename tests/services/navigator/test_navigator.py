@@ -290,6 +290,38 @@ def test_blocked_tries_recoveries_in_order_then_stops_with_the_reason() -> None:
     assert "2 recoveries" in nav.status.reason
 
 
+def test_a_failed_phase_0_recovers_and_plans_again_with_what_stood_in_its_way() -> None:
+    # world-differs campaign b7002w.m05: a cupboard the map lacks beside a door's approach
+    # pose; Phase 0 found no way there and the mission ended. Now the recoveries run and
+    # the re-plan carries the points in the docking pose's way, and only those: the band
+    # ahead of a chair docking before a door holds the door's jambs and open leaf, which
+    # would shut the door's approach.
+    first = route(door())
+    fleet = ScriptedFleet(None, routes=[first, first])
+    nav, _out = navigator(fleet, max_recoveries=1)
+    nav.on_goal(NavGoal(0.0, "g1", place="room_b"))
+    step(nav, fleet)
+    fleet.arrive()  # leg 0
+    step(nav, fleet)
+    for _ in range(3):  # the controller says arrived, the pose disagrees
+        fleet.arrive(off=(0.3, 0.0))
+        step(nav, fleet)
+    assert nav.status.state == "running" and nav.status.phase == Phase.RECOVER, nav.status
+    a = first.checkpoints[0].approach
+    assert [pose for pose, _margin in fleet.marked_at] == [(a.x, a.y, a.theta)]
+    assert fleet.marked == 0  # no band marks
+    held = [d for k, d in fleet.events if k == "recovery" and d.startswith("held")]
+    assert held and held[0].startswith("held (Correct d1: not within 0.15 m"), held
+    while nav.recovering and fleet.t < 60.0:
+        fleet.t += 0.5
+        step(nav, fleet)
+        if fleet.sent[-1].reverse or fleet.sent[-1].dock_heading is not None:
+            fleet.arrive()
+            step(nav, fleet)
+    step(nav, fleet)
+    assert len(fleet.route_requests) == 2 and nav.status.state == "running"
+
+
 def hold_until_replanned(nav: Navigator, fleet: ScriptedFleet) -> None:
     """Report "blocked" and run the recovery it starts (its moves done at once) until the
     re-plan, or the end of the mission."""
