@@ -452,13 +452,15 @@ class Navigator:
         # the phase the hold came in (the failed tree's stop step has set its own since)
         following = self.status.phase == Phase.FOLLOW
         stretch = self._mark_untraversed(est) if following else 0
-        self.log.warning(
-            "held (%s)%s: recovery %d of %d", cause, where, self.recoveries, self.cfg.max_recoveries
+        what = (
+            f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s"
+            if cause in RECOVERABLE
+            else f"{cause}{where}"
         )
+        self.log.warning("%s: recovery %d of %d", what, self.recoveries, self.cfg.max_recoveries)
         self.fleet.event(
             "recovery",
-            f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s: "
-            f"recovery {self.recoveries} of {self.cfg.max_recoveries}, "
+            f"{what}: recovery {self.recoveries} of {self.cfg.max_recoveries}, "
             f"{marked} blocking points marked"
             + (f", {stretch} of the leg ahead marked untraversed" if stretch else ""),
         )

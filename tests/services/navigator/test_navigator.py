@@ -310,8 +310,9 @@ def test_a_failed_phase_0_recovers_and_plans_again_with_what_stood_in_its_way() 
     a = first.checkpoints[0].approach
     assert [pose for pose, _margin in fleet.marked_at] == [(a.x, a.y, a.theta)]
     assert fleet.marked == 0  # no band marks
-    held = [d for k, d in fleet.events if k == "recovery" and d.startswith("held")]
-    assert held and held[0].startswith("held (Correct d1: not within 0.15 m"), held
+    said = [d for k, d in fleet.events if k == "recovery"]
+    assert said[0].startswith("Correct d1: not within 0.15 m"), said
+    assert "recovery 1 of 1, 0 blocking points marked" in said[0]
     while nav.recovering and fleet.t < 60.0:
         fleet.t += 0.5
         step(nav, fleet)
