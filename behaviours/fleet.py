@@ -86,6 +86,11 @@ class Fleet(Protocol):
         """Remember the scan points just ahead of the chair as obstacles for the route
         requests of this mission (a re-plan goes around them); how many were marked."""
 
+    def mark_near(self, points: np.ndarray) -> int:
+        """Remember the scan points within the chair's clearance half width of any of
+        ``points`` (N, 2, map frame, the chair's floor), as :meth:`mark_blocking` does:
+        what stands on the way ahead; how many."""
+
     def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
         """Remember the scan points inside the chair's footprint (its clearance width),
         grown by ``margin_m``, as it would stand at ``pose`` (x, y, heading; map frame), as

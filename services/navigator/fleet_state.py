@@ -205,15 +205,34 @@ class FleetState:
         del self.blocking[:-400]
         return len(near)
 
-    def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
-        if self._scan is None or self._pose is None:
-            return 0
+    def _band_on_map(self) -> np.ndarray:
+        """The latest scan's points in the door check's height band, map frame (N, 2)."""
         pts = self._band()[:, :2].astype(float)
         p = self._pose.pose
         c, s = math.cos(p.theta), math.sin(p.theta)
-        world = np.column_stack(
+        return np.column_stack(
             [p.x + c * pts[:, 0] - s * pts[:, 1], p.y + s * pts[:, 0] + c * pts[:, 1]]
         )
+
+    def _remember(self, near: np.ndarray) -> int:
+        """Keep about 60 of ``near`` (N, 2, map frame) as blocking points; how many."""
+        near = near[:: max(1, len(near) // 60)]
+        floor = self._pose.pose.floor
+        self.blocking.extend((float(px), float(py), floor) for px, py in near)
+        del self.blocking[:-400]
+        return len(near)
+
+    def mark_near(self, points: np.ndarray) -> int:
+        if self._scan is None or self._pose is None or len(points) == 0:
+            return 0
+        world = self._band_on_map()
+        d = np.hypot(world[:, None, 0] - points[None, :, 0], world[:, None, 1] - points[None, :, 1])
+        return self._remember(world[(d <= self.half_width_m).any(axis=1)])
+
+    def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
+        if self._scan is None or self._pose is None:
+            return 0
+        world = self._band_on_map()
         x, y, th = pose
         d = world - (x, y)
         along = d[:, 0] * math.cos(th) + d[:, 1] * math.sin(th)
@@ -223,11 +242,7 @@ class FleetState:
             & (along <= self.front_m + margin_m)
             & (np.abs(across) <= self.half_width_m + margin_m)
         )
-        near = world[inside]
-        near = near[:: max(1, len(near) // 60)]  # at most about 60 points, as a hold marks
-        self.blocking.extend((float(px), float(py), p.floor) for px, py in near)
-        del self.blocking[:-400]
-        return len(near)
+        return self._remember(world[inside])
 
     def mark_untraversed(self, floor: str, points: np.ndarray) -> int:
         self.untraversed.extend((float(x), float(y), floor) for x, y in points)

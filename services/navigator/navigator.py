@@ -65,6 +65,12 @@ WAY_ON_M = 1.5  # how far along the route a recovery faces, or manoeuvres onto i
 UNTRAVERSED_FROM_M = 0.5
 UNTRAVERSED_REACH_M = 1.0
 UNTRAVERSED_STEP_M = 0.1
+# and the scan points on the leg ahead, within the chair's clearance half width of it, up
+# to AHEAD_MARK_M beyond its front: what the map lacks on the way, whichever way the chair
+# faces (world-differs campaign b7002w.m03: a cupboard 0.9 m behind a chair that had to
+# turn round to the path; the band ahead of it marked nothing, and every re-plan went
+# through the cupboard for 160 s)
+AHEAD_MARK_M = 3.0
 
 
 def _way_on_index(pts: np.ndarray, i: int) -> int:
@@ -452,6 +458,8 @@ class Navigator:
         # the phase the hold came in (the failed tree's stop step has set its own since)
         following = self.status.phase == Phase.FOLLOW
         stretch = self._mark_untraversed(est) if following else 0
+        if following and cause in RECOVERABLE:
+            marked += self._mark_on_the_way(est)
         what = (
             f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s"
             if cause in RECOVERABLE
@@ -513,6 +521,16 @@ class Navigator:
             UNTRAVERSED_STEP_M,
         )
         return self.fleet.mark_untraversed(est.pose.floor or floor, stretch) if len(stretch) else 0
+
+    def _mark_on_the_way(self, est) -> int:
+        """Mark the scan points on the leg ahead of the held chair (``AHEAD_MARK_M``);
+        how many."""
+        nearest = self._nearest_leg(est)
+        if nearest is None:
+            return 0
+        reach = self.entry.front_m + AHEAD_MARK_M
+        way = stretch_ahead(nearest[0], (est.pose.x, est.pose.y), 0.0, reach, UNTRAVERSED_STEP_M)
+        return self.fleet.mark_near(way) if len(way) else 0
 
     def _nearest_leg(self, est) -> tuple[np.ndarray, str] | None:
         """The waypoints (N >= 2) and floor of the route's leg nearest the chair on its

@@ -63,6 +63,7 @@ class ScriptedFleet:
         self.turn_room = True
         self.marked = 0
         self.marked_at: list[tuple[tuple[float, float, float], float]] = []
+        self.marked_near: list[np.ndarray] = []
         self.turning = 0.0  # the turn rate odometry reports (rad/s): a chair at work
         self.forgotten = 0
         self.untraversed: list[tuple[str, np.ndarray]] = []  # (floor, points) marked
@@ -150,6 +151,10 @@ class ScriptedFleet:
     def mark_blocking(self) -> int:
         self.marked += 1
         return 3
+
+    def mark_near(self, points: np.ndarray) -> int:
+        self.marked_near.append(points)
+        return 4
 
     def mark_in_footprint(self, pose: tuple[float, float, float], margin_m: float) -> int:
         self.marked_at.append((pose, margin_m))

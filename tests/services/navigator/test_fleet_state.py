@@ -131,6 +131,22 @@ def test_points_in_the_way_of_a_docking_pose_are_marked() -> None:
     assert min(b.y for b in req.blocked) == pytest.approx(1.0)
 
 
+def test_points_on_the_way_ahead_are_marked_whichever_way_the_chair_faces() -> None:
+    # the leg runs west from a chair facing east: the cupboard on it is behind the chair
+    from shared.messages import PointCloud, Pose2D, PoseEstimate
+
+    fleet = state()
+    fleet.on_pose(PoseEstimate(1.0, Pose2D(5.0, 1.0, 0.0, "1"), np.eye(3)))
+    cupboard = [[-1.0, b, 0.0] for b in np.linspace(-0.3, 0.3, 7)]  # map x 4.0
+    aside = [[-1.0, 1.5, 0.0]]  # map (4.0, 2.5): 1.5 m off the leg
+    fleet.on_scan(PointCloud(1.0, "lidar", np.array(cupboard + aside, np.float32)))
+    way = np.column_stack([np.arange(5.0, 1.0, -0.1), np.full(40, 1.0)])
+    assert fleet.mark_near(way) == 7
+    req = fleet.route_request(None, "room_b")
+    assert {round(b.x, 3) for b in req.blocked} == {4.0}
+    assert fleet.mark_near(way[:5]) == 0  # the first 0.4 m of the way: nothing on it
+
+
 def test_a_powered_door_is_closed_only_once_its_leaf_cannot_reach_the_chair() -> None:
     """Campaign b8.m07 (generated building 8): the navigator asked powered hinged door
     d3_021 (1.05 m) to close as soon as the pass ended, 0.7 m past the door plane, and the
