@@ -145,6 +145,7 @@ class MapLocaliser:
         self.relocalisations: list[Relocalisation] = []  # the last HISTORY searches
         self.searches = 0  # searches made in all (the node reports the new ones)
         self.given_up = ""  # why the pose stays lost (relocalise_attempts failed)
+        self.miss_reason = ""  # why the last scan that did not match was a miss
         self._searches = 0  # searches since the pose was lost
         self._lost_scans = 0
         self._relocalisers: dict[int, Relocaliser] = {}
@@ -223,6 +224,18 @@ class MapLocaliser:
         )
         if not good:
             self.misses += 1
+            if m.inlier_ratio < s.min_inlier_ratio:
+                self.miss_reason = (
+                    f"{m.inlier_ratio:.2f} of its points on the map's walls, "
+                    f"below {s.min_inlier_ratio:g}"
+                )
+            elif jump > s.max_correction_m:
+                self.miss_reason = f"a {jump:.2f} m correction, over {s.max_correction_m:g} m"
+            else:
+                self.miss_reason = (
+                    f"a {math.degrees(turn):.0f} deg correction, over "
+                    f"{math.degrees(s.max_correction_rad):.0f} deg"
+                )
             return self._while_lost(points) if s.relocalise and self.lost else False
         self.misses = 0
         self.blind_m = 0.0

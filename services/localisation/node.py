@@ -180,7 +180,10 @@ def main(argv: list[str] | None = None) -> None:
                 lost = False
             if lost != state["lost"]:
                 state["lost"] = lost
-                text = "scans no longer match the map" if lost else "scans match the map again"
+                text = "scans match the map again"
+                if lost:
+                    why = loc.miss_reason
+                    text = "scans no longer match the map" + (f" (the last: {why})" if why else "")
                 bus.publish(
                     keys.key("events", source=NAME),
                     Event(

@@ -50,6 +50,7 @@ def test_localiser_corrects_drift_and_flags_lost() -> None:
     for _ in range(3):
         assert not loc.update_scan(junk)
     assert loc.lost
+    assert "of its points on the map's walls, below 0.5" in loc.miss_reason  # said why
     assert loc.update_scan(scan_at(3.0, 1.8, 0.4)) and not loc.lost
 
 
