@@ -28,6 +28,10 @@ def _positive(v: float) -> str | None:
     return None if v > 0 else "must be > 0"
 
 
+def _fraction(v: float) -> str | None:
+    return None if 0.0 <= v <= 1.0 else "must be in [0, 1]"
+
+
 def _non_negative(v: float) -> str | None:
     return None if v >= 0 else "must be >= 0"
 
@@ -288,6 +292,13 @@ class LocalisationConfig:
     max_correction_m: float = field(default=0.5, metadata=check(_positive))
     max_correction_rad: float = field(default=0.3, metadata=check(_positive))
     lost_after_scans: int = field(default=5, metadata=check(_positive))
+    # a scan below min_inlier_ratio that still has clutter_inlier_ratio of its points on
+    # the map's walls and whose match moves the pose at most clutter_correction_m and
+    # clutter_correction_rad is cluttered (what the map lacks hides the walls), not a miss:
+    # the pose goes on on odometry
+    clutter_inlier_ratio: float = field(default=0.25, metadata=check(_fraction))
+    clutter_correction_m: float = field(default=0.05, metadata=check(_non_negative))
+    clutter_correction_rad: float = field(default=0.035, metadata=check(_non_negative))
     match_cutoff_m: float = field(default=0.4, metadata=check(_positive))
     scan_band_m: float = field(default=0.5, metadata=check(_positive))
     rate_hz: float = field(default=50.0, metadata=check(_positive))
@@ -311,10 +322,6 @@ class LocalisationConfig:
     relocalise_every_scans: int = field(default=10, metadata=check(_positive))
     relocalise_attempts: int = field(default=5, metadata=check(_positive))
     relocalise_budget: int = field(default=500_000, metadata=check(_at_least(1000)))
-
-
-def _fraction(v: float) -> str | None:
-    return None if 0.0 <= v <= 1.0 else "must be in [0, 1]"
 
 
 @dataclass
