@@ -12,6 +12,11 @@ Where the pose is in doubt it is looked for, not given up (issue 15):
 - A scan with fewer than ``min_scan_points`` points sees nothing to match (the middle of
   a hall wider than twice the LiDAR's reach): no disagreement with the map, so no miss;
   the pose goes on on odometry alone and the distance so driven is kept.
+- A scan that matches too few walls (below ``min_inlier_ratio``) but still has
+  ``clutter_inlier_ratio`` of its points on them, where the pose already is (its match
+  moves it at most ``clutter_correction_m`` / ``clutter_correction_rad``), is cluttered:
+  what the map lacks hides the walls (furniture, people, a door moved along its wall).
+  No miss and no correction; the pose goes on on odometry as through a blind stretch.
 - The first scan that sees walls again after ``reacquire_after_m`` or more of that is
   matched by a bounded global search (services/localisation/relocalise.py) around the
   dead-reckoned pose, the region growing with that distance (``drift_per_m``,
