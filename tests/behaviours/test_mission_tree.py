@@ -826,10 +826,11 @@ def test_stop_turn_go_stays_for_automatic_doors_and_by_default() -> None:
         assert fleet.sent[-1].path_id == "r.0"  # no handover: the leg runs to its end
 
 
-def test_stop_turn_go_lines_up_on_the_door_the_scans_show() -> None:
-    # issue 14's door bench: with the map 10 cm off, stop-turn-go lined up on the mapped
-    # 0.80 m hinged door and stopped at the jamb (0 of 10). Seen 0.10 m to the left, the
-    # chair docks and turns again 0.10 m to the left and passes there.
+def seen_open_at(
+    shift_m: float,
+) -> tuple[py_trees.trees.BehaviourTree, ScriptedFleet]:
+    """A tree at the door centred at (2, 0), reported open, its doorway seen ``shift_m``
+    to the left of the map's, once the door has been located in the scans."""
     blackboard()
     fleet = ScriptedFleet(None)
     cp = door()
@@ -837,10 +838,18 @@ def test_stop_turn_go_lines_up_on_the_door_the_scans_show() -> None:
     tree = route_tree(route(cp), fleet)
     to_the_door(tree, fleet)
     fleet.doors["d1"] = DoorMode.OPEN
-    fleet.doorways = [(2.02, 0.10, math.pi / 2, 0.8)]
+    fleet.doorways = [(2.02, shift_m, math.pi / 2, 0.8)]
     for _ in range(3):
         tree.tick()
     located(tree)
+    return tree, fleet
+
+
+def test_stop_turn_go_lines_up_on_the_door_the_scans_show() -> None:
+    # issue 14's door bench: with the map 10 cm off, stop-turn-go lined up on the mapped
+    # 0.80 m hinged door and stopped at the jamb (0 of 10). Seen 0.10 m to the left, the
+    # chair docks and turns again 0.10 m to the left and passes there.
+    tree, fleet = seen_open_at(0.10)
     again = fleet.sent[-1]
     assert again.path_id == "Realign d1 #1"
     assert again.waypoints[-1].tolist() == [1.0, pytest.approx(0.10)]
@@ -862,16 +871,7 @@ def test_a_realign_sideways_gets_a_manoeuvre_s_time_then_hands_over() -> None:
     # 20 s and the mission ended. A shift beyond the position tolerance gets the
     # manoeuvre's allowance, and a realign that still fails hands over to the recoveries.
     bb = blackboard()
-    fleet = ScriptedFleet(None)
-    cp = door()
-    cp.centre = Pose2D(2.0, 0.0, 0.0, "1")
-    tree = route_tree(route(cp), fleet)
-    to_the_door(tree, fleet)
-    fleet.doors["d1"] = DoorMode.OPEN
-    fleet.doorways = [(2.02, 0.195, math.pi / 2, 0.8)]
-    for _ in range(3):
-        tree.tick()
-    located(tree)
+    tree, fleet = seen_open_at(0.195)
     assert fleet.sent[-1].path_id == "Realign d1 #1"
     nav = NavigatorConfig()
     limit = nav.correction_timeout_s + nav.manoeuvre_allowance_s
