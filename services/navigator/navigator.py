@@ -454,16 +454,15 @@ class Navigator:
         # docking that failed) has marked what stood in its way itself, and the band ahead
         # of a chair docking before a door holds the door's jambs and open leaf, which
         # would shut the door's approach (world-differs campaign b7002w.m05)
-        marked = self.fleet.mark_blocking() if cause in RECOVERABLE else 0
+        held = cause in RECOVERABLE
+        marked = self.fleet.mark_blocking() if held else 0
         # the phase the hold came in (the failed tree's stop step has set its own since)
-        following = self.status.phase == Phase.FOLLOW
-        stretch = self._mark_untraversed(est) if following else 0
-        if following and cause in RECOVERABLE:
-            marked += self._mark_on_the_way(est)
+        stretch = 0
+        if held and self.status.phase == Phase.FOLLOW:
+            stretch, seen = self._mark_the_leg_ahead(est)
+            marked += seen
         what = (
-            f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s"
-            if cause in RECOVERABLE
-            else f"{cause}{where}"
+            f"held ({cause}){where} for {self.cfg.recovery_wait_s:g} s" if held else cause + where
         )
         self.log.warning("%s: recovery %d of %d", what, self.recoveries, self.cfg.max_recoveries)
         self.fleet.event(
@@ -505,32 +504,25 @@ class Navigator:
                 )
         self.recovery_place, self.recoveries = here, 0
 
-    def _mark_untraversed(self, est) -> int:
-        """Mark the stretch of the leg being followed just ahead of the held chair (campaign
-        b3003.m08: a gap it could not enter from the diagonal, on the map and so taken by
-        every re-plan); how many points were marked."""
+    def _mark_the_leg_ahead(self, est) -> tuple[int, int]:
+        """Mark the stretch of the leg being followed just ahead of the held chair as
+        untraversed (campaign b3003.m08: a gap it could not enter from the diagonal, on the
+        map and so taken by every re-plan), and the scan points on the leg up to
+        ``AHEAD_MARK_M`` beyond its front as blocking; how many of each were marked."""
         nearest = self._nearest_leg(est)
         if nearest is None:
-            return 0
+            return 0, 0
         pts, floor = nearest
+        here = (est.pose.x, est.pose.y)
+        front = self.entry.front_m
         stretch = stretch_ahead(
-            pts,
-            (est.pose.x, est.pose.y),
-            UNTRAVERSED_FROM_M,
-            self.entry.front_m + UNTRAVERSED_REACH_M,
-            UNTRAVERSED_STEP_M,
+            pts, here, UNTRAVERSED_FROM_M, front + UNTRAVERSED_REACH_M, UNTRAVERSED_STEP_M
         )
-        return self.fleet.mark_untraversed(est.pose.floor or floor, stretch) if len(stretch) else 0
-
-    def _mark_on_the_way(self, est) -> int:
-        """Mark the scan points on the leg ahead of the held chair (``AHEAD_MARK_M``);
-        how many."""
-        nearest = self._nearest_leg(est)
-        if nearest is None:
-            return 0
-        reach = self.entry.front_m + AHEAD_MARK_M
-        way = stretch_ahead(nearest[0], (est.pose.x, est.pose.y), 0.0, reach, UNTRAVERSED_STEP_M)
-        return self.fleet.mark_near(way) if len(way) else 0
+        way = stretch_ahead(pts, here, 0.0, front + AHEAD_MARK_M, UNTRAVERSED_STEP_M)
+        untraversed = (
+            self.fleet.mark_untraversed(est.pose.floor or floor, stretch) if len(stretch) else 0
+        )
+        return untraversed, self.fleet.mark_near(way) if len(way) else 0
 
     def _nearest_leg(self, est) -> tuple[np.ndarray, str] | None:
         """The waypoints (N >= 2) and floor of the route's leg nearest the chair on its
