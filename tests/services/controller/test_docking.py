@@ -194,9 +194,14 @@ def test_a_turn_on_the_spot_goes_the_other_way_round_when_a_corner_would_sweep_a
     assert clear.step(0.0, 0.0, 0.0, obstacles=np.zeros((0, 2))).w > 0  # the short way
 
 
-def dock_in_series_room(start: tuple[float, float, float], goal: tuple[float, float, float]):
+def dock_in_series_room(
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    keep_out: np.ndarray | None = None,
+):
     """Dock in campaign b4.m07's room between two doors in series with the controller's
-    safety checks on the room's points in the loop; (command, x, y, th, t, nearest gap)."""
+    safety checks on the room's points in the loop (``keep_out``: the doorway ahead, as the
+    navigator sends it); (command, x, y, th, t, nearest gap)."""
     from services.controller.safety import guard
     from tests.services.controller.test_manoeuvre import series_room
 
@@ -205,7 +210,7 @@ def dock_in_series_room(start: tuple[float, float, float], goal: tuple[float, fl
     r, c = np.nonzero(occ)
     walls = np.column_stack((ox + (c + 0.5) * 0.05, oy + (r + 0.5) * 0.05))
     docker = Docker(DOCK, robot.footprint, robot.side_margin_m)
-    docker.set_goal(*goal)
+    docker.set_goal(*goal, keep_out=keep_out)
     (x, y, th), v, w = start, 0.0, 0.0
     dt, t, nearest = 1.0 / RATE, 0.0, math.inf
     while t < 90.0:
@@ -271,6 +276,24 @@ def test_beside_the_goal_line_with_no_room_to_sidestep_it_manoeuvres_onto_it(sta
     assert math.hypot(x - goal[0], y - goal[1]) <= 0.1
     assert abs(wrap_angle(th)) <= DOCK.heading_tolerance_rad + 1e-3
     assert nearest > 0.05
+
+
+@pytest.mark.parametrize("start", [(0.6, 0.627, 0.0), (0.55, 0.44, 0.0)])
+def test_beside_the_line_of_a_narrow_door_it_manoeuvres_onto_it(start) -> None:
+    """World-differs campaign b7104w.m00: an 0.80 m door drawn 0.097 m along its wall from
+    where it stands; lining up on the door seen, the chair stood 0.097 m beside the moved
+    approach pose with no room behind for a sidestep. Under ``near_m`` across, the docker
+    called it arrived as it stood, and the pass was held by the jamb three times, as an
+    0.80 m door leaves 7.5 cm a side. Before a doorway (``keep_out``) what is left across
+    is at most a quarter of the slack the doorway leaves: half the slack a side."""
+    goal = (0.6, 0.53, 0.0)
+    doorway = np.array([[2.08, 0.13, 2.08, 0.93]])  # 0.80 m, centred on the goal's line
+    cmd, x, y, th, t, nearest = dock_in_series_room(start, goal, doorway)
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    slack = (0.80 - RobotConfig().footprint.width) / 2
+    assert abs(y - goal[1]) <= slack / 2, round(y - goal[1], 3)
+    assert abs(wrap_angle(th)) <= DOCK.heading_tolerance_rad + 1e-3
+    assert nearest > 0.0
 
 
 @pytest.mark.parametrize("start", [(0.0, 0.045, 0.0), (0.03, -0.07, 0.03), (-0.02, 0.09, -0.05)])
