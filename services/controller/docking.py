@@ -149,6 +149,7 @@ class Docker:
         self._target: tuple[float, float, float] | None = None  # the goal behind a manoeuvre
         self._via: list[tuple[float, float, float]] = []
         self._keep_out = np.zeros((0, 2))  # points along segments a manoeuvre counts as walls
+        self._across = limits.near_m  # what may be left across the goal heading
         self.plan_margin: float | None = None  # the margin of the manoeuvre under way
         self._planned = False
         self.plan_note = ""  # what the last manoeuvre search found, for the node's log
@@ -173,6 +174,7 @@ class Docker:
         a manoeuvre counts the ``keep_out`` segments (N, 4: x1, y1, x2, y2) as walls."""
         self._target, self._via, self._planned = (x, y, heading), [], False
         self._keep_out = _segment_points(keep_out)
+        self._across = self._across_limit(keep_out)
         self.plan_margin: float | None = None
         self._still_s, self._still_at, self._cramped = 0.0, None, False
         self._sidesteps = 0
@@ -191,6 +193,19 @@ class Docker:
         self._backwards: bool | None = None
         self._turn_sign = 0.0
         self._straight = False
+
+    def _across_limit(self, keep_out: np.ndarray | None) -> float:
+        """What may be left across the goal heading once there: ``near_m``, and before a
+        doorway (a ``keep_out`` segment) at most a quarter of the slack it leaves the chair,
+        half the slack a side, the other half the pass's. An 0.80 m door leaves 7.5 cm a
+        side: 0.097 m across stood the pass at the jamb (world-differs b7104w.m00)."""
+        limit = self.limits.near_m
+        if self.footprint is None or keep_out is None or len(keep_out) == 0:
+            return limit
+        seg = np.asarray(keep_out, dtype=float)
+        widths = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+        slack = (float(widths.min()) - self.footprint.width) / 2
+        return min(limit, max(self.limits.lateral_tolerance_m, slack / 2))
 
     def clear(self) -> None:
         self.goal = None
@@ -377,13 +392,14 @@ class Docker:
         return True
 
     def _manoeuvre_across(self, x: float, y: float, theta: float) -> bool:
-        """At the goal with more than ``near_m`` across its heading and no room for a
-        sidestep (campaign b1004.m04: 0.157 m beside the line of the second of two doors in
-        series, the first door's jambs behind): plan a manoeuvre onto the goal, once. True
-        if one is under way; False (arrive as it stands) if none was found."""
+        """At the goal with more than ``near_m`` across its heading (less before a narrow
+        doorway: :meth:`_across_limit`) and no room for a sidestep (campaign b1004.m04:
+        0.157 m beside the line of the second of two doors in series, the first door's
+        jambs behind): plan a manoeuvre onto the goal, once. True if one is under way;
+        False (arrive as it stands) if none was found."""
         gx, gy, gth = self._target
         across = -(x - gx) * math.sin(gth) + (y - gy) * math.cos(gth)
-        if abs(across) <= self.limits.near_m or self._planned:
+        if abs(across) <= self._across or self._planned:
             return False
         self._plan(x, y, theta, self._obstacles)
         return self.goal != self._target
