@@ -244,6 +244,42 @@ def test_the_world_keeps_the_promises_of_the_map(worlds) -> None:
         check_outcomes(label, b.scenarios, world)
 
 
+def _jamb_faces_free(site: Site, door) -> list[bool]:
+    """Per jamb (the 0.1 m of wall beyond each end of the opening) and per side of the
+    wall: whether the floor just off the wall's face beside it is free on the raster."""
+    grid = site.floor(door.floor).map
+    occ = grid.occupied(True)
+    p1 = np.array(door.p1, dtype=float)
+    u = (np.array(door.p2) - p1) / door.width_m
+    n = np.array([-u[1], u[0]])
+    out = []
+    for a, b in ((-0.1, 0.0), (door.width_m, door.width_m + 0.1)):
+        for side in (1.0, -1.0):
+            points = [p1 + u * t + n * side * 0.125 for t in np.linspace(a + 0.02, b - 0.02, 4)]
+            cells = [
+                (
+                    int((y - grid.origin[1]) / grid.resolution),
+                    int((x - grid.origin[0]) / grid.resolution),
+                )
+                for x, y in points
+            ]
+            out.append(not any(occ[r, c] for r, c in cells))
+    return out
+
+
+def test_a_door_keeps_wall_beside_its_jambs_in_the_world(worlds) -> None:
+    """World-differs campaign b7104w.m00: an 0.80 m door moved 0.10 m along its wall ended
+    flush with the side wall of the room before it, its jamb now that wall's end: a door
+    the generator never draws (it leaves 0.1 m of the same wall beside an opening, free
+    floor before it), whose approach runs 7.5 cm off a wall. Where the map has free floor
+    beside a door's jamb, so has the world."""
+    for b, plan, world, _ in worlds:
+        for old, new in zip(plan.doors, world.doors, strict=True):
+            before, after = _jamb_faces_free(plan, old), _jamb_faces_free(world, new)
+            lost = [i for i, (x, y) in enumerate(zip(before, after, strict=True)) if x and not y]
+            assert not lost, f"seed {b.seed}: {new.id} has a jamb in a corner ({lost})"
+
+
 def test_missions_load_with_their_world(worlds) -> None:
     """The scenario loader gives the stack the map and the simulator the world."""
     for b, site, _, _ in worlds[:3]:
