@@ -139,3 +139,7 @@ class FreeSpace:
     def any_carved(self, points: np.ndarray) -> bool:
         """True if any point lies in a carved rectangle."""
         return bool(_inside(points, np.asarray(self.carves).reshape(-1, 4), closed=True).any())
+
+    def all_carved(self, points: np.ndarray) -> bool:
+        """True if every point lies in a carved rectangle (obstacles aside)."""
+        return bool(_inside(points, np.asarray(self.carves).reshape(-1, 4), closed=True).all())

@@ -51,6 +51,7 @@ ADDED_PER_FLOOR = (1, 3)  # pieces of furniture the map lacks, per floor
 REMOVED_SHARE = 0.3  # chance a furnished floor loses one of its mapped pieces
 NEAR_M = 6.0  # a change can reach the rules of doors and places this close to it
 JAMB_M = 0.1  # solid wall beside a door's opening (the generator leaves >= 0.1 m)
+FACE_M = 0.05  # the floor this far off a wall's face beside a jamb shows whether it runs on
 MIN_PARTITION_M = 1.0  # the shortest partition worth moving
 MIN_SIDE_M = 2.5  # a partition move never makes a space narrower than this
 PARTITIONED = ("room", "inner", "ante", "hall")
@@ -188,6 +189,7 @@ class WorldFloor:
         self.fixed_zones, self.fixed_pockets = fixed.keepouts, fixed.pockets
         self.found: dict[str, Found] = {}
         self.strict: dict[str, bool] = {}
+        self.faces: dict[str, list[bool]] = {}  # per door, as the map has them: _jamb_faces
         self.people: list[Rect] = []  # the bounding squares of the people standing
         self._rules_of_the_map()
 
@@ -225,6 +227,29 @@ class WorldFloor:
                 return None
         return door_rules(st, wall, p1t, p2t, door.motion, door.id)
 
+    def _jamb_faces(self, door: DoorSpec) -> list[bool]:
+        """Per jamb and per face of its wall: whether the floor just off the face beside the
+        jamb is free (the wall runs on there, it is not a corner's side wall)."""
+        wall, p1t, p2t = door_wall(door)
+        t_lo, t_hi = min(p1t, p2t), max(p1t, p2t)
+        free = self.state(door.id, zones=False).free
+        out = []
+        for a, b in ((t_lo - JAMB_M, t_lo), (t_hi, t_hi + JAMB_M)):
+            for n0, n1 in ((HALF + 0.01, HALF + FACE_M), (-HALF - FACE_M, -HALF - 0.01)):
+                strip = rect_points(wall.rect(a + 0.01, b - 0.01, n0, n1), step=0.02)
+                out.append(free.all_carved(strip))
+        return out
+
+    def _keeps_its_jambs(self, door: DoorSpec) -> bool:
+        """True if every face beside a jamb of ``door`` that the map has free still is: a
+        door moved along its wall must not end flush with a corner (world-differs
+        b7104w.m00: an 0.80 m door 7.5 cm from the side wall of the room before it), which
+        the generator never draws."""
+        kept = self.faces.get(door.id)
+        return kept is None or all(
+            now or not before for before, now in zip(kept, self._jamb_faces(door), strict=True)
+        )
+
     def _rules_of_the_map(self) -> None:
         """Which rules each door keeps on the map, so the world keeps them: all of them
         (``strict``), or (where the map itself has a leaf a hair inside a place's 0.9 m,
@@ -237,6 +262,7 @@ class WorldFloor:
                 self.found[d.id] = found
         for d in (d for d in doors if d.id in self.found):
             self.strict[d.id] = self.door_holds(d) is not None
+            self.faces[d.id] = self._jamb_faces(d)
 
     def _refresh(self, doors: list[DoorSpec]) -> bool:
         """Find the discs of ``doors`` on the floor as it is now, then check each door
@@ -245,7 +271,7 @@ class WorldFloor:
         doors = [d for d in doors if d.id in self.strict]
         for d in doors:
             found = self.door_holds(d, zones=False)
-            if found is None:
+            if found is None or not self._keeps_its_jambs(d):
                 return False
             self.found[d.id] = found
         return all(self.door_holds(d, self.strict[d.id]) is not None for d in doors)
