@@ -214,3 +214,31 @@ def test_an_obstacle_the_map_lacks_moves_the_approach_pose(tmp_path: Path) -> No
     assert moved.in_sweep  # no room behind the leaf's sweep now
     (again,) = routes.route((1.0, 2.5), "1", (8.5, 2.5), "1").checkpoints
     assert again.approach == mapped.approach  # the marks held for that request only
+
+
+@pytest.mark.parametrize("door_type", ["manual", "powered"])
+def test_a_chair_waits_behind_a_manual_leaf_only_where_it_can_get_there(
+    tmp_path: Path, door_type: str
+) -> None:
+    # world-differs campaign b7200w.m04 and b7101w.m07: the pose behind the sweep of a
+    # manual leaf opening towards the chair, 2 m from the door, lay between a table and
+    # a wall, 7.5 and 10 cm beside the chair; no docking got there, and the recoveries
+    # gave up. A manual leaf moves only by hand, so the chair waits behind its sweep only
+    # where there is room around that pose; else at the preferred standoff, in the sweep
+    # (the room the building promises next to every door). A powered leaf opens by
+    # itself: behind its sweep still, where the chair fits.
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5), (4.9, 0, 5.1, 5)]
+    walls.append((2.5, 2.9, 3.5, 3.5))  # the table, 7.5 cm beside the pose behind the leaf
+    gaps = [(4.9, 2.0, 5.1, 3.0)]
+    keys = {"d": {"type": door_type, "motion": "hinged", "swing": "left"}}
+    site = make_site(tmp_path, walls, gaps, [("d", (5.0, 2.0), (5.0, 3.0))], (10, 5), keys)
+    (cp,) = routes_for(site).route((1.0, 2.5), "1", (8.5, 2.5), "1").checkpoints
+    fp = ROBOT.footprint
+    behind = 5.0 - (fp.front + 1.0 + 0.25)  # the pose behind the leaf's sweep
+    if door_type == "manual":
+        assert cp.approach[0] == pytest.approx(5.0 - PlannerConfig().door_standoff_m, abs=0.06)
+        assert cp.in_sweep
+    else:
+        assert cp.approach[0] == pytest.approx(behind, abs=0.06)
+        assert not cp.in_sweep
