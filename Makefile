@@ -18,9 +18,12 @@ demo: $(STAMP)
 	$(VENV)/bin/wheelnav mission scenarios/demo.yaml --report demo-report.json
 
 # make test leaves out the tests marked long (pyproject.toml): they take as long as the rest
-# together; make test-long runs only them, make test-all everything
+# together; make test-long runs only them, make test-all everything. Two workers
+# (pytest-xdist), a test file to each: a whole-fleet mission in lockstep waits on round
+# trips more than it computes, so two side by side share the two cores well
+TEST_WORKERS ?= 2
 test: $(STAMP)
-	$(PY) -m pytest -q -m "not long"
+	$(PY) -m pytest -q -m "not long" -n $(TEST_WORKERS) --dist loadfile
 
 test-long: $(STAMP)
 	$(PY) -m pytest -q -m long
