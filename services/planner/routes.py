@@ -32,6 +32,7 @@ from services.planner.door_poses import (
     approach_distance,
     exit_distance,
     free_depth,
+    strip_free,
 )
 from services.planner.grid_planner import Plan, Planner, block_segment, with_open_leaves
 from services.planner.path_doors import detect_doors_along_path
@@ -372,7 +373,16 @@ class RoutePlanner:
         swings_left = door.swing == "left"
         towards_chair = door.motion == "hinged" and swings_left == (side < 0)
         leaf = width if towards_chair else 0.0
-        before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, leaf)
+        wait_leaf = leaf
+        if leaf > 0 and door.type == "manual":
+            # behind a manual leaf only where the chair can get there (world-differs
+            # b7200w.m04, b7101w.m07: a pose 7.5 and 10 cm beside a table, never reached)
+            body = fp.front + fp.rear + room.margin_m
+            side_m = room.half_width_m + self.cfg.door_leaf_wait_side_m
+            behind = leaf + LEAF_CLEAR_M
+            if not strip_free(occ, grid.resolution, origin, centre, -n, side_m, behind, body):
+                wait_leaf = 0.0
+        before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, wait_leaf)
         in_sweep = leaf > 0 and before - room.front_m < leaf + LEAF_CLEAR_M - 1e-6
         after = exit_distance(depth(n), self.cfg.door_exit_m, room)
         line = np.asarray(door.pass_centre)  # the free opening's middle (hinged: a leaf in it)
