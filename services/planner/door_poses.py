@@ -74,23 +74,6 @@ def free_depth(
     return float(along[blocked[0]] - step) if len(blocked) else float(max_m)
 
 
-def strip_free(
-    occ: np.ndarray,
-    resolution: float,
-    origin: tuple[float, float],
-    centre: np.ndarray,
-    direction: np.ndarray,
-    half_width_m: float,
-    from_m: float,
-    length_m: float,
-) -> bool:
-    """True if the strip ``half_width_m`` each side of the line from ``centre`` along unit
-    ``direction`` is free from ``from_m`` to ``from_m + length_m`` on ``occ``."""
-    start = np.asarray(centre, dtype=float) + np.asarray(direction, dtype=float) * from_m
-    depth = free_depth(occ, resolution, origin, start, direction, half_width_m, length_m)
-    return depth >= length_m
-
-
 def approach_distance(
     depth_before_m: float, preferred_m: float, room: PoseRoom, leaf_m: float = 0.0
 ) -> float:

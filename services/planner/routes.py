@@ -32,7 +32,6 @@ from services.planner.door_poses import (
     approach_distance,
     exit_distance,
     free_depth,
-    strip_free,
 )
 from services.planner.grid_planner import Plan, Planner, block_segment, with_open_leaves
 from services.planner.path_doors import detect_doors_along_path
@@ -379,8 +378,8 @@ class RoutePlanner:
             # b7200w.m04, b7101w.m07: a pose 7.5 and 10 cm beside a table, never reached)
             body = fp.front + fp.rear + room.margin_m
             side_m = room.half_width_m + self.cfg.door_leaf_wait_side_m
-            behind = leaf + LEAF_CLEAR_M
-            if not strip_free(occ, grid.resolution, origin, centre, -n, side_m, behind, body):
+            start = centre - n * (leaf + LEAF_CLEAR_M)  # the chair's front, waiting there
+            if free_depth(occ, grid.resolution, origin, start, -n, side_m, body) < body:
                 wait_leaf = 0.0
         before = approach_distance(depth(-n), self.cfg.door_standoff_m, room, wait_leaf)
         in_sweep = leaf > 0 and before - room.front_m < leaf + LEAF_CLEAR_M - 1e-6
