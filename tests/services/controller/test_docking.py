@@ -202,13 +202,27 @@ def dock_in_series_room(
     """Dock in campaign b4.m07's room between two doors in series with the controller's
     safety checks on the room's points in the loop (``keep_out``: the doorway ahead, as the
     navigator sends it); (command, x, y, th, t, nearest gap)."""
-    from services.controller.safety import guard
     from tests.services.controller.test_manoeuvre import series_room
 
-    robot, cfg = RobotConfig(), ControllerConfig()
     occ, (ox, oy) = series_room()
     r, c = np.nonzero(occ)
     walls = np.column_stack((ox + (c + 0.5) * 0.05, oy + (r + 0.5) * 0.05))
+    return dock_with_guard(walls, start, goal, keep_out, cell_m=0.05)
+
+
+def dock_with_guard(
+    walls: np.ndarray,
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    keep_out: np.ndarray | None = None,
+    cell_m: float = 0.0,
+):
+    """Dock among the points ``walls`` with the controller's safety checks in the loop
+    (``keep_out``: the doorway ahead, as the navigator sends it); (command, x, y, th, t,
+    nearest gap), the gap less half of ``cell_m`` where the points are cell centres."""
+    from services.controller.safety import guard
+
+    robot, cfg = RobotConfig(), ControllerConfig()
     docker = Docker(DOCK, robot.footprint, robot.side_margin_m)
     docker.set_goal(*goal, keep_out=keep_out)
     (x, y, th), v, w = start, 0.0, 0.0
@@ -233,7 +247,7 @@ def dock_in_series_room(
             np.maximum(np.maximum(-fp.rear - body[:, 0], body[:, 0] - fp.front), 0),
             np.maximum(np.abs(body[:, 1]) - fp.width / 2, 0),
         )
-        nearest = min(nearest, float(gap.min()) - 0.025)  # cell centres: half a cell off
+        nearest = min(nearest, float(gap.min()) - cell_m / 2)
         t += dt
     return cmd, x, y, th, t, nearest
 
@@ -581,3 +595,42 @@ def test_a_goal_beside_a_leaf_is_driven_to_facing_it_not_turned_round_for() -> N
     end = drive(docker, -0.40, -0.01, 0.05, limit_s=20.0, obstacles=leaf)
     assert end.arrived, end
     assert end.turned < math.pi / 2, end  # never round to face away
+
+
+def test_beside_a_door_line_and_a_leaf_seen_through_range_noise_it_manoeuvres_onto_it() -> None:
+    """World-differs b7200w.m04: lined up on the door the map draws, the chair stood 0.11 m
+    beside the line of the 1.0 m door it saw, 5.5 cm from the face of the leaf standing
+    open towards it, with the room behind and to the left free. The search found a way at
+    0.025 m on the map's walls, but none through the scan's range noise (1 cm): on 5 cm
+    cells every point counts as its whole cell and the pose as anywhere in its own, 7 cm
+    added to the margin, and a point scattered into the next cell takes 5 cm more; the
+    pass was held by the leaf until three recoveries gave up."""
+    rng = np.random.default_rng(7)
+
+    def surface(x1: float, y1: float, x2: float, y2: float) -> np.ndarray:
+        line = np.repeat(_wall(x1, y1, x2, y2), 4, axis=0)  # four rings see each spot
+        return line + rng.normal(0.0, 0.01, line.shape)
+
+    points = np.vstack(
+        [
+            surface(12.0, 22.4, 13.8, 22.4),  # the wall with the doorway (13.8 to 14.8)
+            surface(14.8, 22.4, 16.9, 22.4),
+            surface(13.8, 22.4, 13.8, 22.6),  # its jambs
+            surface(14.8, 22.4, 14.8, 22.6),
+            surface(14.77, 22.4, 14.77, 21.4),  # the leaf, open towards the chair
+            surface(16.9, 18.5, 16.9, 22.4),  # the room's east wall
+            surface(14.8, 19.45, 14.8, 20.45),  # a table behind on the right
+            surface(14.8, 20.45, 15.4, 20.45),
+            surface(12.4, 20.2, 12.4, 20.6),  # a cabinet on the left
+        ]
+    )
+    doorway = np.array([[13.8, 22.4, 14.8, 22.4]])
+    goal = (14.3, 21.4, math.pi / 2)
+    cmd, x, y, th, t, nearest = dock_with_guard(
+        points, (14.39, 21.36, math.radians(91)), goal, doorway
+    )
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    slack = (1.0 - RobotConfig().footprint.width) / 2
+    assert abs(x - goal[0]) <= slack / 4, round(x - goal[0], 3)
+    assert abs(wrap_angle(th - goal[2])) <= DOCK.heading_tolerance_rad + 1e-3
+    assert nearest > 0.0
