@@ -250,25 +250,24 @@ class Docker:
         hi = np.maximum((x, y), goal[:2]) + ROOM_REACH_M
         shape = np.ceil((hi - lo) / ROOM_CELL_M).astype(int)
         pts = np.vstack([np.asarray(obstacles, dtype=float)[:, :2], self._keep_out])
-        cells = np.floor((pts - lo) / ROOM_CELL_M).astype(int)
-        inside = (cells >= 0).all(axis=1) & (cells < shape).all(axis=1)
-        occupied = np.zeros((shape[1], shape[0]), dtype=bool)
-        occupied[cells[inside, 1], cells[inside, 0]] = True
+        inside = pts[((pts >= lo) & (pts < lo + shape * ROOM_CELL_M)).all(axis=1)]
         origin = (float(lo[0]), float(lo[1]))
         poses, margin, short = None, 0.0, None
         # with slack first; a chair held by the safety checks may stand nearer than that.
         # A search whose goal does not fit ends anywhere within its slack, beside the goal:
         # a smaller margin that ends on the goal is better (kept otherwise as a fallback),
-        # down to none: the grid is conservative by up to a cell (a point anywhere in it,
-        # scattered by range noise), and the controller's guard keeps its own margin
+        # down to none: the room counts a pose as anywhere in its cell (half a cell more),
+        # range noise scatters points nearer, and the controller's guard keeps its margin.
+        # One that ends where the chair stands is no manoeuvre
         budget = Budget(PLAN_EXPANSIONS)
         for margin in (self.margin_m + PLAN_SLACK_M, self.margin_m, self.margin_m / 2, 0.0):
             body = ManoeuvreBody(fp.front, fp.rear, fp.width, margin)
-            room = Room(occupied, ROOM_CELL_M, origin, body)
+            room = Room.from_points(inside, ROOM_CELL_M, origin, (shape[1], shape[0]), body)
             poses = plan_manoeuvre(room, (x, y, theta), goal, budget=budget)
             if poses is not None and _ends_on(poses[-1], goal):
                 break
-            short = short or (None if poses is None else (poses, margin))
+            if poses is not None and _moves(poses, (x, y, theta)):
+                short = short or (poses, margin)
         else:
             poses, margin = short or (None, 0.0)
         if poses is None:
@@ -564,6 +563,16 @@ class Docker:
 
     def _speed(self, remaining: float) -> float:
         return min(self._cap, max(MIN_SPEED, self.limits.speed_gain * remaining))
+
+
+def _moves(poses: list[tuple[float, float, float]], start: tuple[float, float, float]) -> bool:
+    """True if any of a manoeuvre's ``poses`` lies further from ``start`` than a pose of
+    it is reached within (a search whose goal does not fit may end where it starts)."""
+    return any(
+        math.hypot(p[0] - start[0], p[1] - start[1]) > VIA_TOLERANCE_M
+        or abs(wrap_angle(p[2] - start[2])) > VIA_HEADING_RAD
+        for p in poses
+    )
 
 
 def _ends_on(end: tuple[float, float, float], goal: tuple[float, float, float]) -> bool:

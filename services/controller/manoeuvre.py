@@ -29,6 +29,7 @@ from shared.geometry import wrap_angle
 
 HEADINGS = 72  # heading steps in a full turn (5 degrees each)
 ESCAPE_STEPS = 8  # a start that does not fit is left by at most this many straight steps
+POINT_CELL_M = 0.02  # points are merged on cells this size before a room is stamped
 TURN, FORWARD, BACK = 0, 1, 2
 
 
@@ -67,8 +68,13 @@ class Budget:
 
 class Room:
     """Where the chair may stand in a window of the floor: one grid of free rear-axle
-    cells per heading step (the footprint grown by the margin and half a cell diagonal,
-    since a pose may lie anywhere in its cell)."""
+    cells per heading step. A cell is blocked where the footprint, grown by the margin
+    and by half a cell diagonal (a pose may lie anywhere in its cell), covers a point.
+
+    Built from an occupancy grid (each occupied cell's centre, grown by half a cell
+    diagonal more, as a point may lie anywhere in it) or, with :meth:`from_points`,
+    from the points themselves: a scan's range noise scatters a wall's points a few
+    centimetres, and on 5 cm cells one of them fills a whole cell nearer the chair."""
 
     def __init__(
         self,
@@ -77,29 +83,63 @@ class Room:
         origin: tuple[float, float],
         body: ManoeuvreBody,
     ) -> None:
+        occ_r, occ_c = np.nonzero(np.asarray(occupied, dtype=bool))
+        centres = np.column_stack(
+            (origin[0] + (occ_c + 0.5) * resolution, origin[1] + (occ_r + 0.5) * resolution)
+        )
+        self._build(centres, resolution * math.sqrt(0.5), resolution, origin, occupied.shape, body)
+
+    @classmethod
+    def from_points(
+        cls,
+        points: np.ndarray,
+        resolution: float,
+        origin: tuple[float, float],
+        shape: tuple[int, int],
+        body: ManoeuvreBody,
+    ) -> Room:
+        """The room a window of ``shape`` (rows, columns) from ``origin`` leaves among
+        ``points`` (N, 2); the points are first merged on ``POINT_CELL_M`` cells (a
+        3-D scan has thousands on a few metres of wall), each taken as anywhere in its
+        cell."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        cells = np.unique(np.floor(pts / POINT_CELL_M).astype(np.int64), axis=0)
+        room = cls.__new__(cls)
+        room._build(
+            (cells + 0.5) * POINT_CELL_M,
+            POINT_CELL_M * math.sqrt(0.5),
+            resolution,
+            origin,
+            shape,
+            body,
+        )
+        return room
+
+    def _build(
+        self,
+        points: np.ndarray,
+        point_slack_m: float,
+        resolution: float,
+        origin: tuple[float, float],
+        shape: tuple[int, int],
+        body: ManoeuvreBody,
+    ) -> None:
         self.res = float(resolution)
         self.ox, self.oy = float(origin[0]), float(origin[1])
-        self.shape = occupied.shape
-        grow = body.margin_m + self.res * math.sqrt(0.5)
-        offsets, starts = [], [0]
-        for k in range(HEADINGS):
-            kernel = _footprint_kernel(body, grow, 2 * math.pi * k / HEADINGS, self.res)
-            rows, cols = np.nonzero(kernel)
-            offsets.append(
-                np.column_stack((rows - kernel.shape[0] // 2, cols - kernel.shape[1] // 2))
-            )
-            starts.append(starts[-1] + len(rows))
-        off = np.concatenate(offsets).astype(np.int64)
-        occ_r, occ_c = np.nonzero(np.asarray(occupied, dtype=bool))
-        # the footprint at (r, c) covers (r, c) + offset: blocked where any is occupied
+        self.shape = (int(shape[0]), int(shape[1]))
+        grow = body.margin_m + self.res * math.sqrt(0.5) + point_slack_m
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
         self.free = ~_blocked(
-            occ_r.astype(np.int64),
-            occ_c.astype(np.int64),
-            off[:, 0].copy(),
-            off[:, 1].copy(),
-            np.asarray(starts, dtype=np.int64),
-            occupied.shape[0],
-            occupied.shape[1],
+            pts[:, 0].copy(),
+            pts[:, 1].copy(),
+            body.front + grow,
+            body.rear + grow,
+            body.width / 2 + grow,
+            self.res,
+            self.ox,
+            self.oy,
+            self.shape[0],
+            self.shape[1],
         )
         self.free[:, 0, :] = self.free[:, -1, :] = False  # beyond the window is unknown
         self.free[:, :, 0] = self.free[:, :, -1] = False
@@ -150,45 +190,45 @@ def _line_free(
 
 @numba.njit(cache=True)
 def _blocked(
-    occ_r: np.ndarray,
-    occ_c: np.ndarray,
-    off_r: np.ndarray,
-    off_c: np.ndarray,
-    starts: np.ndarray,
+    px: np.ndarray,
+    py: np.ndarray,
+    front: float,
+    rear: float,
+    half_width: float,
+    res: float,
+    ox: float,
+    oy: float,
     h: int,
     w: int,
 ) -> np.ndarray:
-    """(HEADINGS, h, w): True where the footprint at that cell and heading step covers an
-    occupied cell. Each occupied cell stamps the kernel's offsets backwards: the walls of
-    a room are a few hundred cells, so this is a dilation at a fraction of its cost."""
-    out = np.zeros((len(starts) - 1, h, w), dtype=np.bool_)
-    for k in range(len(starts) - 1):
-        for i in range(len(occ_r)):
-            for j in range(starts[k], starts[k + 1]):
-                r = occ_r[i] - off_r[j]
-                c = occ_c[i] - off_c[j]
-                if 0 <= r < h and 0 <= c < w:
-                    out[k, r, c] = True
+    """(HEADINGS, h, w): True where the rectangle ``rear`` behind to ``front`` ahead of
+    the cell's centre, ``half_width`` to each side, at that heading step covers a point.
+    The centres it covers for one point are the rectangle turned half round about the
+    point: each row of cells inside that quadrilateral is filled from its two edges."""
+    out = np.zeros((HEADINGS, h, w), dtype=np.bool_)
+    bx = np.array([-rear, front, front, -rear])
+    by = np.array([-half_width, -half_width, half_width, half_width])
+    cx, cy = np.empty(4), np.empty(4)
+    for k in range(HEADINGS):
+        c, s = math.cos(2 * math.pi * k / HEADINGS), math.sin(2 * math.pi * k / HEADINGS)
+        for i in range(len(px)):
+            for j in range(4):  # the covering centres' corners, in cells from cell (0, 0)
+                cx[j] = (px[i] - (c * bx[j] - s * by[j]) - ox) / res - 0.5
+                cy[j] = (py[i] - (s * bx[j] + c * by[j]) - oy) / res - 0.5
+            for r in range(max(0, math.ceil(cy.min())), min(h - 1, math.floor(cy.max())) + 1):
+                lo, hi = math.inf, -math.inf
+                for j in range(4):
+                    ya, yb = cy[j], cy[(j + 1) % 4]
+                    if ya == yb:
+                        if ya == r:
+                            lo = min(lo, cx[j], cx[(j + 1) % 4])
+                            hi = max(hi, cx[j], cx[(j + 1) % 4])
+                    elif min(ya, yb) <= r <= max(ya, yb):
+                        xr = cx[j] + (r - ya) * (cx[(j + 1) % 4] - cx[j]) / (yb - ya)
+                        lo, hi = min(lo, xr), max(hi, xr)
+                for col in range(max(0, math.ceil(lo)), min(w - 1, math.floor(hi)) + 1):
+                    out[k, r, col] = True
     return out
-
-
-def _footprint_kernel(body: ManoeuvreBody, grow: float, theta: float, res: float) -> np.ndarray:
-    """Cell offsets (a boolean kernel centred on the rear axle's cell) that the rectangle
-    grown by ``grow`` covers at heading ``theta``."""
-    reach = math.hypot(max(body.front, body.rear) + grow, body.width / 2 + grow) + res
-    n = int(math.ceil(reach / res))
-    d = np.arange(-n, n + 1) * res
-    gx, gy = np.meshgrid(d, d)  # rows are y, columns x
-    c, s = math.cos(theta), math.sin(theta)
-    # cell squares near the rectangle: test the cell centre against the rectangle grown
-    # by half a cell diagonal more, so every cell the rectangle touches is taken
-    half = res * math.sqrt(0.5)
-    bx, by = c * gx + s * gy, -s * gx + c * gy
-    return (
-        (bx >= -body.rear - grow - half)
-        & (bx <= body.front + grow + half)
-        & (np.abs(by) <= body.width / 2 + grow + half)
-    )
 
 
 def warm_up() -> None:
