@@ -72,9 +72,11 @@ def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
         hz = wheelnav("topic", "hz", keys.odom, "--duration", "3", "--connect", endpoint)
         rates = [float(ln.split()[1]) for ln in hz.stdout.splitlines() if " Hz " in ln]
         # 50 Hz odometry at real time; a loaded machine slows the whole fleet below real
-        # time (21 Hz beside a campaign and two busy loops), so the floor only tells a live
-        # stream measured in Hz from a wrong unit or a stalled one
-        assert rates and 5 < rates[-1] < 65, hz.stdout
+        # time (21 Hz beside a campaign and two busy loops), and a simulator that fell
+        # behind its wall clock catches up in a burst (79.6 Hz over a window of 100 beside
+        # a campaign): the bounds only tell a live stream measured in Hz from a stalled one
+        # or a wrong unit (a thousandfold)
+        assert rates and 5 < rates[-1] < 1000, hz.stdout
 
         # garbage on the keys services listen to: logged and counted, nobody dies
         from shared.config import TransportConfig
