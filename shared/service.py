@@ -307,10 +307,13 @@ class Service:
 
 
 def wall_loop(rate_hz: float, step: Callable[[float], None], stop: threading.Event) -> None:
-    """Call ``step(now)`` at ``rate_hz`` of wall time until ``stop`` (hardware without a sim)."""
+    """Call ``step(now)`` at ``rate_hz`` of wall time until ``stop`` (hardware without a sim).
+    A step that overruns is followed by one step at once and the rate from there: the
+    steps it missed are skipped, not run back to back (each takes a tick's worth of speed
+    ramps and stall watches), as ROS's Rate does."""
     period = 1.0 / rate_hz
     next_t = time.monotonic()
     while not stop.is_set():
         step(time.time())
-        next_t += period
+        next_t = max(next_t + period, time.monotonic())
         stop.wait(max(0.0, next_t - time.monotonic()))
