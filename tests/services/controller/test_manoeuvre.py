@@ -191,8 +191,8 @@ def reference_free(points: np.ndarray, slack: float, shape, body: ManoeuvreBody,
 def test_the_room_is_stamped_from_what_is_occupied_as_checked_cell_by_cell() -> None:
     """The room's free cells per heading, stamped point by point, are those where the
     grown footprint at the cell's centre covers no occupied cell's centre (grown by half
-    a cell more) or no point (grown by half a merged cell more): the reference, checked
-    cell by cell, is 40 times slower on a campaign room."""
+    a cell more) or no point (grown by half a merged cell more), as a reference that
+    checks every cell against every point finds them."""
     from services.controller.manoeuvre import HEADINGS, POINT_CELL_M
 
     rng = np.random.default_rng(7)
