@@ -149,22 +149,11 @@ class Room:
 
     def fits(self, x: float, y: float, k: int) -> bool:
         """Whether the chair at (x, y) with heading step ``k`` is clear."""
-        r = math.floor((y - self.oy) / self.res)
-        c = math.floor((x - self.ox) / self.res)
-        h, w = self.shape
-        return 0 <= r < h and 0 <= c < w and bool(self.free[k % HEADINGS, r, c])
+        return bool(_fits(self.free, self.res, self.ox, self.oy, x, y, k))
 
     def turn_fits(self, x: float, y: float, k0: int, k1: int) -> bool:
         """Whether turning on the spot from step ``k0`` to ``k1`` (the short way) is clear."""
-        d = (k1 - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2
-        r = math.floor((y - self.oy) / self.res)
-        c = math.floor((x - self.ox) / self.res)
-        h, w = self.shape
-        if not (0 <= r < h and 0 <= c < w):
-            return False
-        step = 1 if d >= 0 else -1
-        column = self.free[:, r, c]  # one cell: every heading step at once
-        return all(column[(k0 + i * step) % HEADINGS] for i in range(abs(d) + 1))
+        return bool(_turn_fits(self.free, self.res, self.ox, self.oy, x, y, k0, k1))
 
     def drive_fits(self, x0: float, y0: float, x1: float, y1: float, k: int) -> bool:
         """Whether driving straight from (x0, y0) to (x1, y1) with heading step ``k`` is clear."""
@@ -231,13 +220,198 @@ def _blocked(
     return out
 
 
+@numba.njit(cache=True)
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+@numba.njit(cache=True)
+def _step_of(theta: float) -> int:
+    return int(np.rint(_wrap(theta) / (2 * math.pi) * HEADINGS)) % HEADINGS
+
+
+@numba.njit(cache=True)
+def _fits(free: np.ndarray, res: float, ox: float, oy: float, x: float, y: float, k: int) -> bool:
+    r = math.floor((y - oy) / res)
+    c = math.floor((x - ox) / res)
+    return 0 <= r < free.shape[1] and 0 <= c < free.shape[2] and free[k % HEADINGS, r, c]
+
+
+@numba.njit(cache=True)
+def _turn_fits(
+    free: np.ndarray, res: float, ox: float, oy: float, x: float, y: float, k0: int, k1: int
+) -> bool:
+    d = (k1 - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2
+    r = math.floor((y - oy) / res)
+    c = math.floor((x - ox) / res)
+    if not (0 <= r < free.shape[1] and 0 <= c < free.shape[2]):
+        return False
+    step = 1 if d >= 0 else -1
+    for i in range(abs(d) + 1):  # noqa: SIM110 (numba compiles no generator in all())
+        if not free[(k0 + i * step) % HEADINGS, r, c]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _simple(
+    free: np.ndarray,
+    res: float,
+    ox: float,
+    oy: float,
+    x0: float,
+    y0: float,
+    t0: float,
+    x1: float,
+    y1: float,
+    t1: float,
+    goal_turns: np.ndarray,
+) -> tuple[int, float]:
+    """:func:`simple_manoeuvre` compiled: (0, 0) if neither fits, (1, 0) for a turn on
+    the spot to the goal heading, (2, drive) for turn, drive along ``drive``, turn.
+    ``goal_turns`` caches per heading step whether the last turn fits (-1: not known)."""
+    k0, kg = _step_of(t0), _step_of(t1)
+    dist = math.hypot(x1 - x0, y1 - y0)
+    if dist < res:
+        return (1, 0.0) if _turn_fits(free, res, ox, oy, x0, y0, k0, kg) else (0, 0.0)
+    face = math.atan2(y1 - y0, x1 - x0)
+    for i in range(2):
+        drive = face if i == 0 else _wrap(face + math.pi)
+        k = _step_of(drive)
+        if goal_turns[k] < 0:
+            goal_turns[k] = 1 if _turn_fits(free, res, ox, oy, x1, y1, k, kg) else 0
+        if (
+            goal_turns[k] == 1
+            and _line_free(free[k % HEADINGS], res, ox, oy, x0, y0, x1, y1)
+            and _turn_fits(free, res, ox, oy, x0, y0, k0, k)
+        ):
+            return 2, drive
+    return 0, 0.0
+
+
+@numba.njit(cache=True)
+def _key(r: int, c: int, k: int, mode: int) -> int:
+    return (((r + (1 << 20)) * (1 << 21) + (c + (1 << 20))) * HEADINGS + k) * 3 + mode
+
+
+@numba.njit(cache=True)
+def _search(
+    free: np.ndarray,
+    res: float,
+    ox: float,
+    oy: float,
+    sx: float,
+    sy: float,
+    k0: int,
+    gx: float,
+    gy: float,
+    gt: float,
+    reach: float,
+    steps_off: int,
+    turn_cost: float,
+    reverse_factor: float,
+    switch_m: float,
+    limit: int,
+):
+    """The hybrid A* of :func:`plan_manoeuvre`, compiled: in Python its loop took 50 us a
+    pose on a loaded machine, and in lockstep the controller's tick waits for it (campaign
+    b6005.m00: a search outran the simulator's 5 s). Nodes live in slots; the
+    answer is (how it ended: 0 nothing, 1 at the goal, 2 with a tail to it; poses
+    expanded; the last node's slot; the tail's kind and drive heading as :func:`_simple`
+    gives them; the slots' x, y, heading step, mode and parent)."""
+    kg = _step_of(gt)
+    cap = 4 * limit + 1  # each expansion adds at most four nodes
+    xs, ys = np.empty(cap), np.empty(cap)
+    ks, modes = np.empty(cap, np.int64), np.empty(cap, np.int64)
+    best, parent, escape = np.empty(cap), np.empty(cap, np.int64), np.empty(cap, np.int64)
+    slot_of = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+    goal_turns = np.full(HEADINGS, -1, np.int8)
+    step = res
+
+    r0, c0 = math.floor((sy - oy) / res), math.floor((sx - ox) / res)
+    xs[0], ys[0], ks[0], modes[0] = sx, sy, k0, TURN
+    best[0], parent[0] = 0.0, -1
+    escape[0] = 0 if _fits(free, res, ox, oy, sx, sy, k0) else 1
+    slot_of[_key(r0, c0, k0, TURN)] = 0
+    used = 1
+    steps = abs((kg - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
+    h0 = math.hypot(gx - sx, gy - sy) + turn_cost * max(0, steps - steps_off)
+    queue = [(h0, 0.0, r0, c0, k0, TURN)]
+    expanded = 0
+    while len(queue) > 0 and expanded < limit:
+        _, g, r, c, k, mode = heapq.heappop(queue)
+        s = slot_of[_key(r, c, k, mode)]
+        if g > best[s]:
+            continue
+        expanded += 1
+        x, y = xs[s], ys[s]
+        near = math.hypot(gx - x, gy - y) < reach
+        if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= steps_off:
+            return 1, expanded, s, 0, 0.0, xs, ys, ks, modes, parent
+        th = 2 * math.pi * (k % HEADINGS) / HEADINGS
+        th = _wrap(th)
+        kind, drive = _simple(free, res, ox, oy, x, y, th, gx, gy, gt, goal_turns)
+        if kind != 0:
+            return 2, expanded, s, kind, drive, xs, ys, ks, modes, parent
+        out = escape[s]
+        for i in range(4):
+            nx, ny, nk, nmode, cost = x, y, (k + 1) % HEADINGS, TURN, turn_cost
+            if i == 1:
+                nk = (k - 1) % HEADINGS
+            elif i == 2:
+                nx, ny = x + step * math.cos(th), y + step * math.sin(th)
+                nk, nmode, cost = k, FORWARD, step
+            elif i == 3:
+                nx, ny = x + -step * math.cos(th), y + -step * math.sin(th)
+                nk, nmode, cost = k, BACK, step * reverse_factor
+            fits = _fits(free, res, ox, oy, nx, ny, nk)
+            if not fits and (out == 0 or nmode == TURN or out >= ESCAPE_STEPS):
+                continue  # only a start that does not fit is left by straight steps
+            ng = g + cost + (switch_m if nmode != mode and s != 0 else 0.0)
+            nr, nc = math.floor((ny - oy) / res), math.floor((nx - ox) / res)
+            nkey = _key(nr, nc, nk, nmode)
+            ns = slot_of[nkey] if nkey in slot_of else -1  # noqa: SIM401 (get: Optional)
+            if ns < 0 or ng < best[ns]:
+                if ns < 0:
+                    ns, used = used, used + 1
+                    slot_of[nkey] = ns
+                best[ns], parent[ns] = ng, s
+                xs[ns], ys[ns], ks[ns], modes[ns] = nx, ny, nk, nmode
+                escape[ns] = 0 if fits else out + 1
+                steps = abs((kg - nk + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
+                h = math.hypot(gx - nx, gy - ny) + turn_cost * max(0, steps - steps_off)
+                heapq.heappush(queue, (ng + h, ng, nr, nc, nk, nmode))
+    return 0, expanded, -1, 0, 0.0, xs, ys, ks, modes, parent
+
+
 def warm_up() -> None:
-    """Compile (or load) the room's kernel now, not in the first manoeuvre of a mission:
-    in lockstep the compile would hold a tick past the simulator's timeout."""
+    """Compile (or load) the room's and the search's kernels now, not in the first
+    manoeuvre of a mission: in lockstep the compile would hold a tick past the
+    simulator's timeout."""
     occupied = np.zeros((4, 4), dtype=bool)
     occupied[1, 1] = True
     room = Room(occupied, 0.05, (0.0, 0.0), ManoeuvreBody(0.2, 0.1, 0.2, 0.0))
     room.drive_fits(0.0, 0.0, 0.1, 0.1, 0)
+    room.fits(0.1, 0.1, 0)
+    simple_manoeuvre(room, (0.1, 0.1, 0.0), (0.15, 0.1, 1.0))
+    _search(
+        room.free,
+        room.res,
+        room.ox,
+        room.oy,
+        0.1,
+        0.1,
+        0,
+        0.15,
+        0.1,
+        1.0,
+        0.05,
+        0,
+        0.03,
+        1.5,
+        0.5,
+        2,
+    )
 
 
 def heading_step(theta: float) -> int:
@@ -253,26 +427,27 @@ def simple_manoeuvre(
     room: Room,
     start: tuple[float, float, float],
     goal: tuple[float, float, float],
-    goal_turns: dict[int, bool] | None = None,
 ) -> list[tuple[float, float, float]] | None:
     """Turn to face the goal's position (or turn away from it to back up to it), drive
-    there, turn to the goal heading: the poses after each part, or None if neither fits.
-    ``goal_turns`` caches, per heading step, whether the last turn fits (the goal is the
-    same for every pose a search tries this from)."""
-    x0, y0, t0 = start
-    x1, y1, t1 = goal
-    k0, kg = heading_step(t0), heading_step(t1)
-    dist = math.hypot(x1 - x0, y1 - y0)
-    if dist < room.res:
-        return [(x0, y0, t1)] if room.turn_fits(x0, y0, k0, kg) else None
-    face = math.atan2(y1 - y0, x1 - x0)
-    turns = {} if goal_turns is None else goal_turns
-    for drive in (face, wrap_angle(face + math.pi)):
-        k = heading_step(drive)
-        if k not in turns:
-            turns[k] = room.turn_fits(x1, y1, k, kg)
-        if turns[k] and room.drive_fits(x0, y0, x1, y1, k) and room.turn_fits(x0, y0, k0, k):
-            return [(x0, y0, drive), (x1, y1, drive), (x1, y1, t1)]
+    there, turn to the goal heading: the poses after each part, or None if neither fits."""
+    kind, drive = _simple(
+        room.free, room.res, room.ox, room.oy, *start, *goal, np.full(HEADINGS, -1, np.int8)
+    )
+    return _tail(kind, drive, start, goal)
+
+
+def _tail(
+    kind: int, drive: float, start: tuple[float, float, float], goal: tuple[float, float, float]
+) -> list[tuple[float, float, float]] | None:
+    """The poses of :func:`_simple`'s answer."""
+    if kind == 1:
+        return [(float(start[0]), float(start[1]), goal[2])]
+    if kind == 2:
+        return [
+            (float(start[0]), float(start[1]), float(drive)),
+            (goal[0], goal[1], float(drive)),
+            (goal[0], goal[1], goal[2]),
+        ]
     return None
 
 
@@ -308,68 +483,39 @@ def plan_manoeuvre(
     direct = simple_manoeuvre(room, start, goal)
     if direct is not None:
         return direct
-    step = room.res
-    turn_cost = costs.turn_m_per_rad * 2 * math.pi / HEADINGS
-
-    def heuristic(x: float, y: float, k: int) -> float:
-        """A lower bound of the cost to go: the distance, and the turn still to make to
-        the goal heading (only turns on the spot change it; one step is the tolerance)."""
-        steps = abs((kg - k + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
-        return math.hypot(goal[0] - x, goal[1] - y) + turn_cost * max(0, steps - steps_off)
-
-    # a node: (x, y, k, mode); parents by key, keys by (row, col, k, mode)
-    first = (start[0], start[1], k0, TURN)
-    parent: dict[tuple, tuple | None] = {}
-    best: dict[tuple, float] = {}
-    node_of: dict[tuple, tuple] = {}
-    key0 = (*room.cell(start[0], start[1]), k0, TURN)
-    best[key0], parent[key0], node_of[key0] = 0.0, None, first
-    escape = {key0: 0 if room.fits(start[0], start[1], k0) else 1}  # steps out, 0: fits
-    queue = [(heuristic(start[0], start[1], k0), 0.0, key0)]
-    expanded = 0
-    goal_turns: dict[int, bool] = {}
     limit = costs.max_expansions if budget is None else min(costs.max_expansions, budget.left)
-    while queue and expanded < limit:
-        _, g, key = heapq.heappop(queue)
-        if g > best.get(key, math.inf):
-            continue
-        expanded += 1
-        if budget is not None:
-            budget.left -= 1
-        x, y, k, mode = node_of[key]
-        near = math.hypot(goal[0] - x, goal[1] - y) < reach
-        if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= steps_off:
-            return _poses(_chain(parent, node_of, key))  # there, within the reach
-        tail = simple_manoeuvre(room, (x, y, step_heading(k)), goal, goal_turns)
-        if tail is not None:
-            return _poses(_chain(parent, node_of, key)) + tail
-        moves = [
-            (x, y, (k + 1) % HEADINGS, TURN, turn_cost),
-            (x, y, (k - 1) % HEADINGS, TURN, turn_cost),
-        ]
-        th = step_heading(k)
-        for sign, move_mode, factor in ((1.0, FORWARD, 1.0), (-1.0, BACK, costs.reverse_factor)):
-            moves.append(
-                (
-                    x + sign * step * math.cos(th),
-                    y + sign * step * math.sin(th),
-                    k,
-                    move_mode,
-                    step * factor,
-                )
-            )
-        out = escape.get(key, 0)
-        for nx, ny, nk, nmode, cost in moves:
-            fits = room.fits(nx, ny, nk)
-            if not fits and (not out or nmode == TURN or out >= ESCAPE_STEPS):
-                continue  # only a start that does not fit is left by straight steps
-            ng = g + cost + (costs.switch_m if nmode != mode and key != key0 else 0.0)
-            nkey = (*room.cell(nx, ny), nk, nmode)
-            if ng < best.get(nkey, math.inf):
-                best[nkey], parent[nkey], node_of[nkey] = ng, key, (nx, ny, nk, nmode)
-                escape[nkey] = 0 if fits else out + 1
-                heapq.heappush(queue, (ng + heuristic(nx, ny, nk), ng, nkey))
-    return None
+    turn_cost = costs.turn_m_per_rad * 2 * math.pi / HEADINGS
+    found, expanded, last, kind, drive, xs, ys, ks, modes, parent = _search(
+        room.free,
+        room.res,
+        room.ox,
+        room.oy,
+        float(start[0]),
+        float(start[1]),
+        k0,
+        float(goal[0]),
+        float(goal[1]),
+        float(goal[2]),
+        reach,
+        steps_off,
+        turn_cost,
+        costs.reverse_factor,
+        costs.switch_m,
+        max(0, limit),
+    )
+    if budget is not None:
+        budget.left -= expanded
+    if not found:
+        return None
+    chain = []
+    while last >= 0:
+        chain.append((float(xs[last]), float(ys[last]), int(ks[last]), int(modes[last])))
+        last = parent[last]
+    nodes = chain[::-1]
+    if found == 1:
+        return _poses(nodes)  # there, within the reach
+    x, y, k, _ = nodes[-1]
+    return _poses(nodes) + _tail(kind, drive, (x, y, step_heading(k)), goal)
 
 
 def _on_line(
@@ -384,14 +530,6 @@ def _on_line(
             if room.fits(x, y, kg):
                 return (x, y, goal[2])
     return None
-
-
-def _chain(parent: dict, node_of: dict, key: tuple) -> list[tuple]:
-    out = []
-    while key is not None:
-        out.append(node_of[key])
-        key = parent[key]
-    return out[::-1]
 
 
 def _poses(nodes: list[tuple]) -> list[tuple[float, float, float]]:

@@ -3,12 +3,15 @@ turn does not fit, and every pose along them keeps the margin."""
 
 from __future__ import annotations
 
+import heapq
 import math
 
 import numpy as np
 
 from services.controller.manoeuvre import (
+    Budget,
     ManoeuvreBody,
+    ManoeuvreCosts,
     Room,
     plan_manoeuvre,
     simple_manoeuvre,
@@ -211,3 +214,136 @@ def test_the_room_is_stamped_from_what_is_occupied_as_checked_cell_by_cell() -> 
             assert np.array_equal(room.free[k], ref), (margin, k)
             ref = reference_free(merged, POINT_CELL_M * math.sqrt(0.5), occ.shape, body, k)
             assert np.array_equal(scanned.free[k], ref), (margin, k)
+
+
+def reference_plan(room: Room, start, goal, costs: ManoeuvreCosts):
+    """The search as it was written in Python before it was compiled, on the same room:
+    the compiled one must give the very same poses (or None) and use as many expansions."""
+    from services.controller import manoeuvre as m
+
+    def fits(x, y, k):
+        r, c = math.floor((y - room.oy) / room.res), math.floor((x - room.ox) / room.res)
+        h, w = room.shape
+        return 0 <= r < h and 0 <= c < w and bool(room.free[k % m.HEADINGS, r, c])
+
+    def turn_fits(x, y, k0, k1):
+        d = (k1 - k0 + m.HEADINGS // 2) % m.HEADINGS - m.HEADINGS // 2
+        if not fits(x, y, k0):
+            return False
+        step = 1 if d >= 0 else -1
+        return all(fits(x, y, (k0 + i * step) % m.HEADINGS) for i in range(abs(d) + 1))
+
+    def simple(start, goal, turns):
+        x0, y0, t0 = start
+        x1, y1, t1 = goal
+        k0, kg = m.heading_step(t0), m.heading_step(t1)
+        if math.hypot(x1 - x0, y1 - y0) < room.res:
+            return [(x0, y0, t1)] if turn_fits(x0, y0, k0, kg) else None
+        face = math.atan2(y1 - y0, x1 - x0)
+        for drive in (face, wrap_angle(face + math.pi)):
+            k = m.heading_step(drive)
+            if k not in turns:
+                turns[k] = turn_fits(x1, y1, k, kg)
+            if turns[k] and room.drive_fits(x0, y0, x1, y1, k) and turn_fits(x0, y0, k0, k):
+                return [(x0, y0, drive), (x1, y1, drive), (x1, y1, t1)]
+        return None
+
+    k0, kg = m.heading_step(start[2]), m.heading_step(goal[2])
+    ok = fits(goal[0], goal[1], kg)
+    if not ok:
+        on_line = m._on_line(room, goal, kg, costs.goal_slack_m)
+        if on_line is not None:
+            goal, ok = on_line, True
+    reach = room.res if ok else costs.goal_slack_m
+    steps_off = 0 if ok else 1
+    direct = simple(start, goal, {})
+    if direct is not None:
+        return direct, 0
+    step, turn_cost = room.res, costs.turn_m_per_rad * 2 * math.pi / m.HEADINGS
+
+    def heuristic(x, y, k):
+        steps = abs((kg - k + m.HEADINGS // 2) % m.HEADINGS - m.HEADINGS // 2)
+        return math.hypot(goal[0] - x, goal[1] - y) + turn_cost * max(0, steps - steps_off)
+
+    def chain(key):
+        out = []
+        while key is not None:
+            out.append(node_of[key])
+            key = parent[key]
+        return m._poses(out[::-1])
+
+    key0 = (*room.cell(start[0], start[1]), k0, m.TURN)
+    best, parent, node_of = {key0: 0.0}, {key0: None}, {key0: (start[0], start[1], k0, m.TURN)}
+    escape = {key0: 0 if fits(start[0], start[1], k0) else 1}
+    queue, expanded, turns = [(heuristic(start[0], start[1], k0), 0.0, key0)], 0, {}
+    while queue and expanded < costs.max_expansions:
+        _, g, key = heapq.heappop(queue)
+        if g > best.get(key, math.inf):
+            continue
+        expanded += 1
+        x, y, k, mode = node_of[key]
+        if (
+            math.hypot(goal[0] - x, goal[1] - y) < reach
+            and abs((k - kg + m.HEADINGS // 2) % m.HEADINGS - m.HEADINGS // 2) <= steps_off
+        ):
+            return chain(key), expanded
+        tail = simple((x, y, m.step_heading(k)), goal, turns)
+        if tail is not None:
+            return chain(key) + tail, expanded
+        th = m.step_heading(k)
+        moves = [
+            (x, y, (k + 1) % m.HEADINGS, m.TURN, turn_cost),
+            (x, y, (k - 1) % m.HEADINGS, m.TURN, turn_cost),
+        ]
+        for sign, move_mode, factor in (
+            (1.0, m.FORWARD, 1.0),
+            (-1.0, m.BACK, costs.reverse_factor),
+        ):
+            moves.append(
+                (
+                    x + sign * step * math.cos(th),
+                    y + sign * step * math.sin(th),
+                    k,
+                    move_mode,
+                    step * factor,
+                )
+            )
+        out = escape.get(key, 0)
+        for nx, ny, nk, nmode, cost in moves:
+            ok = fits(nx, ny, nk)
+            if not ok and (not out or nmode == m.TURN or out >= m.ESCAPE_STEPS):
+                continue
+            ng = g + cost + (costs.switch_m if nmode != mode and key != key0 else 0.0)
+            nkey = (*room.cell(nx, ny), nk, nmode)
+            if ng < best.get(nkey, math.inf):
+                best[nkey], parent[nkey], node_of[nkey] = ng, key, (nx, ny, nk, nmode)
+                escape[nkey] = 0 if ok else out + 1
+                heapq.heappush(queue, (ng + heuristic(nx, ny, nk), ng, nkey))
+    return None, expanded
+
+
+def test_the_compiled_search_gives_the_poses_the_python_search_gave() -> None:
+    """The search runs compiled (in lockstep the controller's tick waits for it); on
+    random cluttered rooms, starts that fit or not and goals that fit or not, it returns
+    exactly the poses the Python loop it replaced returned, after as many expansions."""
+    rng = np.random.default_rng(11)
+    costs = ManoeuvreCosts(max_expansions=4000)
+    searched = found = 0
+    for case in range(40):
+        occ = np.zeros((60, 60), dtype=bool)
+        occ[:3, :] = occ[-3:, :] = occ[:, :3] = occ[:, -3:] = True
+        for _ in range(rng.integers(1, 5)):
+            r, c = rng.integers(3, 55, 2)
+            occ[r : r + rng.integers(2, 12), c : c + rng.integers(2, 12)] = True
+        margin = float(rng.choice([0.0, 0.025, 0.05]))
+        room = Room(occ, RES, (0.0, 0.0), ManoeuvreBody(FP.front, FP.rear, FP.width, margin))
+        start = (*rng.uniform(0.6, 2.4, 2), float(rng.uniform(-math.pi, math.pi)))
+        goal = (*rng.uniform(0.6, 2.4, 2), float(rng.uniform(-math.pi, math.pi)))
+        budget = Budget(costs.max_expansions)
+        got = plan_manoeuvre(room, start, goal, costs, budget)
+        want, expanded = reference_plan(room, start, goal, costs)
+        assert got == want, case
+        assert costs.max_expansions - budget.left == expanded, case
+        searched += expanded > 0
+        found += expanded > 0 and want is not None
+    assert searched >= 20 and found >= 5, (searched, found)
