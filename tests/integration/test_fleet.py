@@ -534,7 +534,7 @@ def test_a_chair_whose_clock_is_an_hour_off_is_never_judged_stale(
         done = heard.mission_end("clock-off")
         assert done.state == "succeeded", done.reason
         with heard.lock:
-            held = stale_holds(heard.seen["events"])
+            held = stale_holds(heard.seen["events"], done.stamp)
         # an hour's offset judged across clocks would hold every pose for ever; a busy
         # machine may still deliver one late now and then, on any clock
         assert all(s <= STALE_BLIP_S for s in held), held
@@ -545,19 +545,21 @@ def test_a_chair_whose_clock_is_an_hour_off_is_never_judged_stale(
 STALE_BLIP_S = 3.0  # a pose held up this long by a busy machine is load, not a clock
 
 
-def stale_holds(events: list) -> list[float]:
+def stale_holds(events: list, end_s: float | None = None) -> list[float]:
     """How long each stale-pose safety stop among the navigator's ``events`` (Event
-    messages or report dicts) lasted, from its clear event; one never cleared is inf."""
+    messages or report dicts) lasted, from its clear event; one still open at the end
+    lasted until ``end_s`` (the mission's end on the events' clock), inf without it."""
     held: list[float] = []
-    open_ = False
+    since: float | None = None
     for e in events:
         kind, detail = (e["kind"], e["detail"]) if isinstance(e, dict) else (e.kind, e.detail)
+        t = e["t"] if isinstance(e, dict) else e.stamp
         if kind == "safety_stop" and "stale_pose" in detail:
-            open_ = True
-        elif kind == "safety_clear" and detail.startswith("stale_pose") and open_:
+            since = t
+        elif kind == "safety_clear" and detail.startswith("stale_pose") and since is not None:
             found = re.search(r"after ([0-9.]+) s", detail)
             held.append(float(found.group(1)) if found else float("inf"))
-            open_ = False
-    if open_:
-        held.append(float("inf"))
+            since = None
+    if since is not None:
+        held.append(float("inf") if end_s is None else max(0.0, end_s - since))
     return held
