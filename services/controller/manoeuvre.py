@@ -290,11 +290,6 @@ def _simple(
 
 
 @numba.njit(cache=True)
-def _key(r: int, c: int, k: int, mode: int) -> int:
-    return (((r + (1 << 20)) * (1 << 21) + (c + (1 << 20))) * HEADINGS + k) * 3 + mode
-
-
-@numba.njit(cache=True)
 def _search(
     free: np.ndarray,
     res: float,
@@ -324,7 +319,8 @@ def _search(
     xs, ys = np.empty(cap), np.empty(cap)
     ks, modes = np.empty(cap, np.int64), np.empty(cap, np.int64)
     best, parent, escape = np.empty(cap), np.empty(cap, np.int64), np.empty(cap, np.int64)
-    slot_of = numba.typed.Dict.empty(key_type=numba.types.int64, value_type=numba.types.int64)
+    h, w = free.shape[1], free.shape[2]
+    slot_of = np.full(h * w * HEADINGS * 3, -1, np.int32)  # per (row, col, step, mode)
     goal_turns = np.full(HEADINGS, -1, np.int8)
     step = res
 
@@ -332,7 +328,7 @@ def _search(
     xs[0], ys[0], ks[0], modes[0] = sx, sy, k0, TURN
     best[0], parent[0] = 0.0, -1
     escape[0] = 0 if _fits(free, res, ox, oy, sx, sy, k0) else 1
-    slot_of[_key(r0, c0, k0, TURN)] = 0
+    slot_of[((r0 * w + c0) * HEADINGS + k0) * 3 + TURN] = 0
     used = 1
     steps = abs((kg - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
     h0 = math.hypot(gx - sx, gy - sy) + turn_cost * max(0, steps - steps_off)
@@ -340,7 +336,7 @@ def _search(
     expanded = 0
     while len(queue) > 0 and expanded < limit:
         _, g, r, c, k, mode = heapq.heappop(queue)
-        s = slot_of[_key(r, c, k, mode)]
+        s = slot_of[((r * w + c) * HEADINGS + k) * 3 + mode]
         if g > best[s]:
             continue
         expanded += 1
@@ -369,8 +365,10 @@ def _search(
                 continue  # only a start that does not fit is left by straight steps
             ng = g + cost + (switch_m if nmode != mode and s != 0 else 0.0)
             nr, nc = math.floor((ny - oy) / res), math.floor((nx - ox) / res)
-            nkey = _key(nr, nc, nk, nmode)
-            ns = slot_of[nkey] if nkey in slot_of else -1  # noqa: SIM401 (get: Optional)
+            if not (0 <= nr < h and 0 <= nc < w):
+                continue  # an escape step out of the window: nothing out there fits
+            nkey = ((nr * w + nc) * HEADINGS + nk) * 3 + nmode
+            ns = slot_of[nkey]
             if ns < 0 or ng < best[ns]:
                 if ns < 0:
                     ns, used = used, used + 1
@@ -379,8 +377,8 @@ def _search(
                 xs[ns], ys[ns], ks[ns], modes[ns] = nx, ny, nk, nmode
                 escape[ns] = 0 if fits else out + 1
                 steps = abs((kg - nk + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
-                h = math.hypot(gx - nx, gy - ny) + turn_cost * max(0, steps - steps_off)
-                heapq.heappush(queue, (ng + h, ng, nr, nc, nk, nmode))
+                to_go = math.hypot(gx - nx, gy - ny) + turn_cost * max(0, steps - steps_off)
+                heapq.heappush(queue, (ng + to_go, ng, nr, nc, nk, nmode))
     return 0, expanded, -1, 0, 0.0, xs, ys, ks, modes, parent
 
 
