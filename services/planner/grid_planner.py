@@ -269,12 +269,13 @@ def block_segment(
     n = max(2, int(np.ceil(np.linalg.norm(b - a) / (grid.resolution / 2))) + 1)
     pts = a + (b - a) * np.linspace(0.0, 1.0, n)[:, None]
     k = int(np.ceil(thickness_m / grid.resolution))
-    for dr in range(-k, k + 1):
-        for dc in range(-k, k + 1):
-            rows = np.floor((pts[:, 1] - grid.origin[1]) / grid.resolution).astype(int) + dr
-            cols = np.floor((pts[:, 0] - grid.origin[0]) / grid.resolution).astype(int) + dc
-            ok = (rows >= 0) & (rows < lethal.shape[0]) & (cols >= 0) & (cols < lethal.shape[1])
-            lethal[rows[ok], cols[ok]] = True
+    dr, dc = np.mgrid[-k : k + 1, -k : k + 1].reshape(2, -1)  # every offset at once: a
+    # recovery's 60 marked points each looped over 17 x 17 offsets took 3 s a route
+    rows = np.floor((pts[:, 1] - grid.origin[1]) / grid.resolution).astype(int)
+    cols = np.floor((pts[:, 0] - grid.origin[0]) / grid.resolution).astype(int)
+    rows, cols = (rows[:, None] + dr[None, :]).ravel(), (cols[:, None] + dc[None, :]).ravel()
+    ok = (rows >= 0) & (rows < lethal.shape[0]) & (cols >= 0) & (cols < lethal.shape[1])
+    lethal[rows[ok], cols[ok]] = True
 
 
 def run_in_point(

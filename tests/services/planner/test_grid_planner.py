@@ -151,3 +151,33 @@ def test_a_path_through_a_gap_keeps_to_its_middle_not_to_the_inflation(tmp_path)
     tight = PlannerConfig(cost_band_m=0.0, shortcut_margin_m=0.0)
     assert _nearest_wall_m(site, Planner(site, RobotConfig(), tight), *ends) < 0.40
     assert _nearest_wall_m(site, Planner(site, RobotConfig(), PlannerConfig()), *ends) >= 0.48
+
+
+def test_a_blocked_segment_or_point_marks_the_cells_a_loop_over_each_offset_marks() -> None:
+    """``block_segment`` marks every offset of every sample at once (a recovery's 60 marked
+    points, each looped offset by offset, cost 3 s a route on a 30 x 60 m floor, past the
+    route's wait on a loaded machine); the cells are those the per-offset loop marked,
+    near the grid's edges too."""
+    from services.planner.grid_planner import block_segment
+    from shared.site import GridMap
+
+    grid = GridMap(np.zeros((40, 60), np.int8), 0.05, (1.0, -0.5, 0.0))
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        p1 = tuple(rng.uniform((0.9, -0.6), (4.1, 1.6)))
+        p2 = p1 if rng.random() < 0.5 else tuple(rng.uniform((0.9, -0.6), (4.1, 1.6)))
+        thickness = float(rng.choice([0.0, 0.15, 0.375]))
+        got = np.zeros(grid.shape, bool)
+        block_segment(got, grid, p1, p2, thickness)
+        want = np.zeros(grid.shape, bool)
+        a, b = np.asarray(p1), np.asarray(p2)
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / (grid.resolution / 2))) + 1)
+        for x, y in a + (b - a) * np.linspace(0.0, 1.0, n)[:, None]:
+            k = int(np.ceil(thickness / grid.resolution))
+            r0 = int(np.floor((y - grid.origin[1]) / grid.resolution))
+            c0 = int(np.floor((x - grid.origin[0]) / grid.resolution))
+            for r in range(r0 - k, r0 + k + 1):
+                for c in range(c0 - k, c0 + k + 1):
+                    if 0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]:
+                        want[r, c] = True
+        assert np.array_equal(got, want), (p1, p2, thickness)
