@@ -25,8 +25,6 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from shared.geometry import wrap_angle
-
 HEADINGS = 72  # heading steps in a full turn (5 degrees each)
 ESCAPE_STEPS = 8  # a start that does not fit is left by at most this many straight steps
 POINT_CELL_M = 0.02  # points are merged on cells this size before a room is stamped
@@ -222,12 +220,34 @@ def _blocked(
 
 @numba.njit(cache=True)
 def _wrap(a: float) -> float:
+    """``shared.geometry.wrap_angle`` for the kernels (numba caches a kernel beside the
+    module that defines it, so the shared one is not compiled from here)."""
     return math.atan2(math.sin(a), math.cos(a))
 
 
 @numba.njit(cache=True)
 def _step_of(theta: float) -> int:
+    """The heading step nearest ``theta`` (halves to even, as Python's round)."""
     return int(np.rint(_wrap(theta) / (2 * math.pi) * HEADINGS)) % HEADINGS
+
+
+@numba.njit(cache=True)
+def _heading_of(k: int) -> float:
+    """The heading (radians, [-pi, pi]) of heading step ``k``."""
+    return _wrap(2 * math.pi * (k % HEADINGS) / HEADINGS)
+
+
+@numba.njit(cache=True)
+def _steps_apart(a: int, b: int) -> int:
+    """How many heading steps from ``a`` to ``b`` the short way (unsigned)."""
+    return abs((b - a + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
+
+
+@numba.njit(cache=True)
+def _to_go(x: float, y: float, k: int, gx: float, gy: float, kg: int, turn_cost: float, off: int):
+    """A lower bound of the cost to go: the distance, and the turn still to make to the
+    goal heading (only turns on the spot change it; ``off`` steps are the tolerance)."""
+    return math.hypot(gx - x, gy - y) + turn_cost * max(0, _steps_apart(k, kg) - off)
 
 
 @numba.njit(cache=True)
@@ -330,9 +350,7 @@ def _search(
     escape[0] = 0 if _fits(free, res, ox, oy, sx, sy, k0) else 1
     slot_of[((r0 * w + c0) * HEADINGS + k0) * 3 + TURN] = 0
     used = 1
-    steps = abs((kg - k0 + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
-    h0 = math.hypot(gx - sx, gy - sy) + turn_cost * max(0, steps - steps_off)
-    queue = [(h0, 0.0, r0, c0, k0, TURN)]
+    queue = [(_to_go(sx, sy, k0, gx, gy, kg, turn_cost, steps_off), 0.0, r0, c0, k0, TURN)]
     expanded = 0
     while len(queue) > 0 and expanded < limit:
         _, g, r, c, k, mode = heapq.heappop(queue)
@@ -342,10 +360,9 @@ def _search(
         expanded += 1
         x, y = xs[s], ys[s]
         near = math.hypot(gx - x, gy - y) < reach
-        if near and abs((k - kg + HEADINGS // 2) % HEADINGS - HEADINGS // 2) <= steps_off:
+        if near and _steps_apart(k, kg) <= steps_off:
             return 1, expanded, s, 0, 0.0, xs, ys, ks, modes, parent
-        th = 2 * math.pi * (k % HEADINGS) / HEADINGS
-        th = _wrap(th)
+        th = _heading_of(k)
         kind, drive = _simple(free, res, ox, oy, x, y, th, gx, gy, gt, goal_turns)
         if kind != 0:
             return 2, expanded, s, kind, drive, xs, ys, ks, modes, parent
@@ -376,8 +393,7 @@ def _search(
                 best[ns], parent[ns] = ng, s
                 xs[ns], ys[ns], ks[ns], modes[ns] = nx, ny, nk, nmode
                 escape[ns] = 0 if fits else out + 1
-                steps = abs((kg - nk + HEADINGS // 2) % HEADINGS - HEADINGS // 2)
-                to_go = math.hypot(gx - nx, gy - ny) + turn_cost * max(0, steps - steps_off)
+                to_go = _to_go(nx, ny, nk, gx, gy, kg, turn_cost, steps_off)
                 heapq.heappush(queue, (ng + to_go, ng, nr, nc, nk, nmode))
     return 0, expanded, -1, 0, 0.0, xs, ys, ks, modes, parent
 
@@ -414,11 +430,11 @@ def warm_up() -> None:
 
 def heading_step(theta: float) -> int:
     """The heading step nearest ``theta``."""
-    return int(round(wrap_angle(theta) / (2 * math.pi) * HEADINGS)) % HEADINGS
+    return int(_step_of(theta))
 
 
 def step_heading(k: int) -> float:
-    return wrap_angle(2 * math.pi * (k % HEADINGS) / HEADINGS)
+    return float(_heading_of(k))
 
 
 def simple_manoeuvre(
