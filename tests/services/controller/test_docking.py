@@ -654,3 +654,31 @@ def test_in_a_corner_by_a_door_it_manoeuvres_where_the_search_needs_more_than_60
     assert math.hypot(x - goal[0], y - goal[1]) <= DOCK.position_tolerance_m, (x, y)
     assert abs(wrap_angle(th - goal[2])) <= DOCK.heading_tolerance_rad + 1e-3
     assert nearest > 0.0
+
+
+@pytest.mark.parametrize(
+    "start",
+    [(24.6, 43.9, -1.6818), (24.45, 44.65, math.radians(-78)), (24.596, 44.65, -3.029)],
+    ids=["mission_start", "manoeuvre_start", "held_6_deg_off"],
+)
+def test_the_last_degrees_of_a_turn_beside_an_open_leaf_are_not_held(
+    start: tuple[float, float, float],
+) -> None:
+    """World-differs campaign b7300w.m04: the approach pose of a hinged door stands 1 m
+    before it in the room, with the open leaf 0.4 m to the right of the chair's front and a
+    wall's corner behind on the same side. The docker's last turn on the spot, 6.5 deg to
+    go, swept clear, but the safety check looked 15 deg ahead (as far as the chair turns in
+    ``turn_check_s``), where the front corner met the leaf: held, and three recoveries
+    ended where they began. The points are the world's map of the room (5 cm cells) and
+    both faces of the 5 cm leaf; the starts are the mission's, the manoeuvre's and the
+    held pose."""
+    from pathlib import Path
+
+    room = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b7300w_leaf_room.npz")
+    points = np.concatenate((room["walls_mm"], room["leaf_mm"])) / 1000.0
+    goal = (24.45, 44.66, math.pi)
+    cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, cell_m=0.05)
+    assert cmd.state == "arrived", (round(t, 1), round(x, 3), round(y, 3), round(th, 3))
+    assert math.hypot(x - goal[0], y - goal[1]) <= DOCK.position_tolerance_m, (x, y)
+    assert abs(wrap_angle(th - goal[2])) <= DOCK.heading_tolerance_rad + 1e-3
+    assert nearest > 0.0
