@@ -488,8 +488,9 @@ class ControllerConfig:
     # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
     precise_side_margin_m: float = field(default=0.02, metadata=check(_non_negative))
     # turning on the spot (slower than turn_check_below_mps): the footprint turned as far
-    # as the chair turns in turn_check_s, at most turn_check_deg, must stay clear of scan
-    # points (a slow turn was checked 15 degrees ahead and held beside an open leaf)
+    # as the chair turns in turn_check_s, at most turn_check_deg (and no further than a
+    # docking turn has left, plus braking), must stay clear of scan points (a slow turn
+    # was checked 15 degrees ahead and held beside an open leaf)
     turn_check_deg: float = field(default=15.0, metadata=check(_positive))
     turn_check_s: float = field(default=1.0, metadata=check(_positive))
     turn_check_below_mps: float = field(default=0.05, metadata=check(_non_negative))

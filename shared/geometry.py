@@ -50,16 +50,23 @@ def turn_closes_in(
     return moves_close_in(xy, front, rear, width, margin, poses)
 
 
-def arc_poses(length: float, curvature: float, steps: int = 4) -> list[tuple[float, float, float]]:
+def arc_poses(
+    length: float, curvature: float, steps: int = 4, max_turn_rad: float = math.inf
+) -> list[tuple[float, float, float]]:
     """Poses (x, y, heading, chair frame) along the arc of ``curvature`` (1/m, left > 0),
-    every ``length / steps`` metres of it (``length`` < 0: backwards)."""
+    every ``length / steps`` metres of it (``length`` < 0: backwards); once the heading
+    has turned ``max_turn_rad`` the rest is straight on (a turn that ends there)."""
     out = []
+    bend = math.inf if abs(curvature) < 1e-12 else max_turn_rad / abs(curvature)
     for s in np.linspace(length / steps, length, steps):
-        phi = curvature * s
+        arc = math.copysign(min(abs(s), bend), s)
+        phi = curvature * arc
         if abs(phi) < 1e-9:
-            out.append((float(s), 0.0, 0.0))
+            x, y = float(arc), 0.0
         else:
-            out.append((math.sin(phi) / curvature, (1.0 - math.cos(phi)) / curvature, phi))
+            x, y = math.sin(phi) / curvature, (1.0 - math.cos(phi)) / curvature
+        on = float(s - arc)  # straight on past the end of the turn
+        out.append((x + on * math.cos(phi), y + on * math.sin(phi), phi))
     return out
 
 

@@ -6,6 +6,7 @@ Every tracker returns it (pure pursuit, the sampling MPC, docking); the node tur
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 
@@ -19,3 +20,6 @@ class Command:
     progress: float = 0.0
     distance_to_goal: float = 0.0
     cross_track: float = 0.0
+    # a turn on the spot: how far it has left to go (inf: not known, or not such a turn);
+    # the safety check sweeps the corners no further than that plus braking
+    turn_left_rad: float = math.inf

@@ -54,6 +54,7 @@ from services.controller.manoeuvre import Budget, ManoeuvreBody, Room, plan_mano
 from shared.config import ControllerConfig, Footprint, RobotConfig
 from shared.geometry import (
     angle_between,
+    arc_poses,
     in_footprint,
     moves_close_in,
     turn_closes_in,
@@ -154,6 +155,7 @@ class Docker:
         self._planned = False
         self.plan_note = ""  # what the last manoeuvre search found, for the node's log
         self._cramped = False  # a turn the short way would sweep into a point
+        self._turn_left = math.inf  # how far this cycle's turn on the spot has to go
         self._still_s = 0.0  # commanded to move and not moving, since _still_at
         self._still_at: tuple[float, float, float] | None = None
         self._tol, self._tol_heading = limits.position_tolerance_m, limits.heading_tolerance_rad
@@ -301,6 +303,7 @@ class Docker:
         if self.goal is None:
             return Command(0.0, 0.0, "idle")
         self._pose, self._obstacles = (x, y, theta), obstacles
+        self._turn_left = math.inf
         target = self._target or self.goal
         there = math.hypot(target[0] - x, target[1] - y) <= self.limits.position_tolerance_m
         # a turn at the goal point the short way held: the long way first; stuck: manoeuvre
@@ -328,7 +331,7 @@ class Docker:
             if dist > self._tol:
                 moved = self._move(ex, ey, dist, theta, obstacles)
                 if isinstance(moved, tuple):
-                    return Command(*moved, "following", progress, dist, 0.0)
+                    return Command(*moved, "following", progress, dist, 0.0, self._turn_left)
                 self._straight = moved is None  # boxed in both ways: turn first, then along
             self.stage = "final"
         v, w, done = self._final(ex, ey, heading_err, gth)
@@ -346,7 +349,7 @@ class Docker:
         if done:
             self._arrived = True
             return Command(0.0, 0.0, "arrived", 1.0, dist, 0.0)
-        return Command(v, w, "following", progress, dist, 0.0)
+        return Command(v, w, "following", progress, dist, 0.0, self._turn_left)
 
     def _near(self) -> float:
         """Within this of the goal the move stage hands over to the final stage: ``near_m``
@@ -431,8 +434,12 @@ class Docker:
                 return "near"
             return 0.0, self._turn(math.copysign(max(MIN_TURN, abs(w)), w), abs(bearing))
         self._turn_sign = 0.0
+        self._turn_left = abs(bearing)  # it steers to face the target, no further
         v = self._speed(dist) * math.cos(bearing)
-        return (-v if backwards else v), w
+        v = -v if backwards else v
+        if dist <= self._near() and self._arc_sweeps(v, w, dist, abs(bearing)):
+            return "near"
+        return v, w
 
     def _final(
         self, ex: float, ey: float, heading_err: float, goal_heading: float
@@ -450,8 +457,10 @@ class Docker:
         self._turn_sign = 0.0
         along = ex * math.cos(goal_heading) + ey * math.sin(goal_heading)
         if abs(along) > self._tol:
+            self._turn_left = abs(heading_err)
             return math.copysign(self._speed(abs(along)), along), lim.turn_gain * heading_err, False
         if abs(heading_err) > self._tol_heading:
+            self._turn_left = abs(heading_err)
             return 0.0, w, False
         return 0.0, 0.0, True
 
@@ -480,14 +489,16 @@ class Docker:
         when this way would sweep a corner into an obstacle point and the whole of the
         other way would not (a point off the front on one side, near a half turn); kept
         until aligned. Neither: this way, marked cramped (a manoeuvre may be needed)."""
+        turned = w
         if self._turn_sign:
-            return math.copysign(abs(w), self._turn_sign)
-        if self._sweeps(w, left_rad):
+            turned = math.copysign(abs(w), self._turn_sign)
+        elif self._sweeps(w, left_rad):
             self._cramped = True  # the short way is held: a manoeuvre may be needed
             if not self._sweeps_all(-w, 2.0 * math.pi - left_rad):
                 self._turn_sign = -math.copysign(1.0, w)
-                return -w
-        return w
+                turned = -w
+        self._turn_left = left_rad if turned * w > 0 else 2.0 * math.pi - left_rad
+        return turned
 
     def _sweeps(self, w: float, left_rad: float = SWEEP_RAD) -> bool:
         """True if turning on the spot the way of ``w``, ``SWEEP_RAD`` or the ``left_rad``
@@ -513,6 +524,19 @@ class Docker:
         steps = max(1, math.ceil(turn_rad / LONG_STEP_RAD))
         angles = np.linspace(turn_rad / steps, turn_rad, steps)
         poses = [(0.0, 0.0, math.copysign(float(a), w)) for a in angles]
+        return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
+
+    def _arc_sweeps(self, v: float, w: float, dist: float, turn_rad: float) -> bool:
+        """True if driving ``dist`` along the arc of (``v``, ``w``), turning at most
+        ``turn_rad``, brings an obstacle point within ``margin_m`` of the footprint, or one
+        already that near nearer still. Campaign b7300w.m04: steering 7 deg onto a pose
+        9 cm away swung the front corner at an open leaf, the guard held it and the chair
+        stood; the final stage's drive along the goal heading turned away from the leaf."""
+        local = self._local_points()
+        if local is None or abs(v) < 1e-6:
+            return False
+        fp = self.footprint
+        poses = arc_poses(math.copysign(dist, v), w / v, max_turn_rad=turn_rad)
         return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
 
     def _local_points(self) -> np.ndarray | None:

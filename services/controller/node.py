@@ -227,6 +227,7 @@ def main(argv: list[str] | None = None) -> None:
                     cfg.localisation.scan_band_m,
                     tracker.precise,
                     tracker.turn_margin(),
+                    cmd.turn_left_rad,
                 )
                 status = FollowStatus(
                     clock.stamp,

@@ -13,18 +13,22 @@ that; a docking crawl next to a wall
 corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the chair (a
 door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
 the footprint turned as far as the chair turns in ``turn_check_s`` (at most
-``turn_check_deg``) must not come within ``robot.side_margin_m`` of a point (docking
+``turn_check_deg``, and no further than the tracker has left to turn plus braking: a
+docking turn 6.5 deg from done was held for ever by a leaf 13 deg ahead) must not come within ``robot.side_margin_m`` of a point (docking
 too: a turn through a 4.5 cm pinch beside a wall passed the narrow margin; held at the
 wide one, the docker plans a manoeuvre out), or while a docking manoeuvre planned for a
 tight room is under way, within ``controller.precise_side_margin_m`` (``turn_margin_m``),
 nor nearer to one already that near (a corner swinging on into a wall); a slow turn
 checked a full 15 degrees ahead held the chair beside an open leaf it was creeping away
-from. Faster, the footprint along the arc it is driving, over the stop zone's length,
+from. Faster, the footprint along the arc it is driving, over the stop zone's length (its
+turn capped the same way, straight on after),
 must keep the same distance: turning at speed, a front corner swings into a wall beside
 the straight strip (campaign b7.m03 stopped 0.9 cm from one). Pure: points come in the robot frame.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -87,15 +91,17 @@ def arc_sweep_hit(
     length_m: float,
     band_m: float,
     margin_m: float,
+    max_turn_rad: float = math.inf,
 ) -> bool:
     """True if driving ``length_m`` along the arc of (``v``, ``w``) brings a point (N, 3,
     robot frame) within ``margin_m`` of the footprint, or one already that near nearer
-    still: turning at speed, a front corner swings into a wall beside the straight strip."""
+    still: turning at speed, a front corner swings into a wall beside the straight strip.
+    The arc turns at most ``max_turn_rad`` and goes straight on from there."""
     if points is None or len(points) == 0 or abs(v) < 1e-3:
         return False
     fp = robot.footprint
     pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
-    poses = arc_poses(length_m if v > 0 else -length_m, w / v)
+    poses = arc_poses(length_m if v > 0 else -length_m, w / v, max_turn_rad=max_turn_rad)
     return moves_close_in(pts, fp.front, fp.rear, fp.width, margin_m, poses)
 
 
@@ -112,6 +118,27 @@ def stop_zone_length(v: float, robot: RobotConfig, cfg: ControllerConfig) -> flo
     share = min(1.0, abs(v) / robot.max_speed)
     braking = braking_distance(v, robot, cfg) + cfg.stop_min_distance_m
     return max(cfg.stop_min_distance_m, cfg.stop_distance_m * share, braking)
+
+
+def turn_check_angle(
+    w: float, robot: RobotConfig, cfg: ControllerConfig, turn_left_rad: float = math.inf
+) -> float:
+    """How far ahead (radians) a turn on the spot at ``w`` is checked: as far as the chair
+    turns in ``turn_check_s``, at most ``turn_check_deg``, and no further than the
+    ``turn_left_rad`` the tracker has left to turn plus what the chair turns on while it
+    brakes. Campaign b7300w.m04: a docking turn with 6.5 deg to go, checked 15 deg ahead
+    beside an open leaf, was held for ever where the turn itself swept clear."""
+    return min(
+        math.radians(cfg.turn_check_deg),
+        abs(w) * cfg.turn_check_s,
+        turn_left_rad + braking_turn(w, robot, cfg),
+    )
+
+
+def braking_turn(w: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
+    """How far (radians) the chair turns on from turn rate ``w`` once told to stop:
+    ``brake_latency_s`` at that rate, then braking at ``robot.max_turn_accel``."""
+    return abs(w) * cfg.brake_latency_s + w * w / (2.0 * robot.max_turn_accel)
 
 
 def guard_points(
@@ -149,11 +176,13 @@ def guard(
     band_m: float,
     precise: bool = False,
     turn_margin_m: float | None = None,
+    turn_left_rad: float = math.inf,
 ) -> tuple[float, float, str]:
     """(v, w, state) after the safety checks; state names the reason when it stops.
     ``precise``: a precise pass or docking, whose margins are narrower (see the module doc);
     ``turn_margin_m``: the margin of a turn on the spot (a docking manoeuvre's, planned
-    narrower in a tight room), else ``robot.side_margin_m``."""
+    narrower in a tight room), else ``robot.side_margin_m``; ``turn_left_rad``: how far
+    that turn has to go, when the tracker knows (see :func:`turn_check_angle`)."""
     if not pose_ok:
         return 0.0, 0.0, "stale_pose" if state not in ("arrived", "idle") else state
     if state in ("arrived", "idle"):
@@ -166,9 +195,10 @@ def guard(
     if stop_zone_hit(scan_points, robot, v, length, band_m, half):
         return 0.0, 0.0, "obstacle"
     turning = abs(v) < cfg.turn_check_below_mps
-    if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin):
+    turn_end = turn_left_rad + braking_turn(w, robot, cfg)
+    if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin, turn_end):
         return 0.0, 0.0, "obstacle"
-    angle = min(np.radians(cfg.turn_check_deg), abs(w) * cfg.turn_check_s)
+    angle = turn_check_angle(w, robot, cfg, turn_left_rad)
     turn_margin = robot.side_margin_m if turn_margin_m is None else turn_margin_m
     if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, turn_margin):
         return 0.0, 0.0, "obstacle"

@@ -40,3 +40,18 @@ def test_matches_the_numpy_statement_on_random_scenes() -> None:
 def test_no_points_or_no_poses_never_hit() -> None:
     assert not moves_close_in(np.zeros((0, 2)), FRONT, REAR, WIDTH, 0.05, [(0.1, 0.0, 0.0)])
     assert not moves_close_in(np.array([[0.8, 0.0]]), FRONT, REAR, WIDTH, 0.05, [])
+
+
+def test_an_arc_turns_no_further_than_its_cap_and_goes_straight_on() -> None:
+    """A turn that ends (the tracker says how far it has left) is an arc, then a line."""
+    free = arc_poses(0.4, 2.0)
+    assert free == arc_poses(0.4, 2.0, max_turn_rad=math.inf)
+    assert math.isclose(free[-1][2], 0.8)
+    capped = arc_poses(0.4, 2.0, max_turn_rad=0.3)
+    assert [p[2] for p in capped] == [0.2, 0.3, 0.3, 0.3]
+    assert capped[1:] and all(
+        math.isclose(math.hypot(b[0] - a[0], b[1] - a[1]), 0.1)
+        for a, b in zip(capped[1:], capped[2:], strict=False)
+    )  # straight on at the same pace once the turn is done
+    back = arc_poses(-0.4, 2.0, max_turn_rad=0.3)
+    assert [round(p[2], 9) for p in back] == [-0.2, -0.3, -0.3, -0.3]

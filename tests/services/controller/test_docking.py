@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from services.controller.docking import Docker, DockLimits
-from shared.config import ControllerConfig, RobotConfig
+from shared.config import ControllerConfig, NavigatorConfig, RobotConfig
 from shared.geometry import wrap_angle
 
 RATE = 25.0
@@ -237,7 +237,21 @@ def dock_with_guard(
             (dx * math.cos(th) + dy * math.sin(th), -dx * math.sin(th) + dy * math.cos(th), 0 * dx)
         )
         margin = docker.turn_margin(robot.side_margin_m, cfg.precise_side_margin_m)  # as the node
-        cv, cw, _ = guard(cmd.v, cmd.w, cmd.state, t, True, t, local, robot, cfg, 1.0, True, margin)
+        cv, cw, _ = guard(
+            cmd.v,
+            cmd.w,
+            cmd.state,
+            t,
+            True,
+            t,
+            local,
+            robot,
+            cfg,
+            1.0,
+            True,
+            margin,
+            cmd.turn_left_rad,
+        )
         v += (cv - v) * dt / LAG_S
         w += (cw - w) * dt / LAG_S
         x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
@@ -679,6 +693,7 @@ def test_the_last_degrees_of_a_turn_beside_an_open_leaf_are_not_held(
     goal = (24.45, 44.66, math.pi)
     cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, cell_m=0.05)
     assert cmd.state == "arrived", (round(t, 1), round(x, 3), round(y, 3), round(th, 3))
-    assert math.hypot(x - goal[0], y - goal[1]) <= DOCK.position_tolerance_m, (x, y)
+    reach = NavigatorConfig().position_tolerance_m  # what the navigator's Correct accepts
+    assert math.hypot(x - goal[0], y - goal[1]) <= reach, (x, y)
     assert abs(wrap_angle(th - goal[2])) <= DOCK.heading_tolerance_rad + 1e-3
     assert nearest > 0.0

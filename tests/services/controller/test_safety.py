@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from services.controller.safety import (
+    braking_turn,
     guard,
     guard_points,
     stop_zone_hit,
     stop_zone_length,
+    turn_check_angle,
     turn_sweep_hit,
 )
 from shared.config import ControllerConfig, RobotConfig, SimConfig
@@ -123,6 +127,40 @@ def test_a_slow_turn_is_checked_over_the_next_second_not_over_turn_check_deg() -
     ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
     assert guard(0.04, 0.1, "following", scan_points=beside_axle, **ok)[2] == "following"
     assert guard(0.0, 0.6, "following", scan_points=beside_axle, **ok)[2] == "obstacle"
+
+
+def test_a_turn_is_checked_no_further_than_the_tracker_has_left_to_turn() -> None:
+    """Campaign b7300w.m04: the docker's last turn on the spot had 6.5 deg to go and swept
+    clear, but the check swung the footprint 15 deg (what 0.3 rad/s turns in
+    ``turn_check_s``), into the open leaf off the front corner, and held the chair for
+    ever. A turn is checked as far as it has left (``turn_left_rad``) plus what the chair
+    turns on while braking; not knowing, as far as before."""
+    off_corner = pts((0.6, -0.50))  # right of the front, a 10 deg turn right reaches it
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    assert guard(0.0, -0.3, "following", scan_points=off_corner, **ok)[2] == "obstacle"
+    left = {deg: math.radians(deg) for deg in (6.5, 10.0)}
+    state = {
+        deg: guard(0.0, -0.3, "following", scan_points=off_corner, turn_left_rad=rad, **ok)[2]
+        for deg, rad in left.items()
+    }
+    assert state == {6.5: "following", 10.0: "obstacle"}
+    assert turn_check_angle(-0.3, ROBOT, CFG, left[6.5]) == left[6.5] + braking_turn(
+        -0.3, ROBOT, CFG
+    )
+    unknown = min(math.radians(CFG.turn_check_deg), 0.3 * CFG.turn_check_s)
+    assert turn_check_angle(-0.3, ROBOT, CFG) == unknown
+
+
+def test_a_drive_is_checked_along_the_arc_only_as_far_as_it_turns() -> None:
+    """The same beside a drive: steering onto a pose 4 deg off, the arc of (v, w) over the
+    stop zone turned 8 deg and swung the front corner at the leaf; the arc turns no further
+    than ``turn_left_rad`` plus braking and goes straight on from there."""
+    leaf = pts((0.7646, -0.449))  # 12 cm right of the front corner
+    ok = dict(now=10.0, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5, pose_ok=True)
+    args = (0.069, -0.161, "following")
+    assert guard(*args, scan_points=leaf, precise=True, **ok)[2] == "obstacle"
+    turn = math.radians(4.3)
+    assert guard(*args, scan_points=leaf, precise=True, turn_left_rad=turn, **ok)[2] == "following"
 
 
 def test_a_docking_turn_is_checked_with_the_margin_the_manoeuvre_was_planned_with() -> None:
