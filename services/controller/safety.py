@@ -14,7 +14,8 @@ corner is not a hazard, a fixed 0.25 m strip held it for ever. Points beside the
 door's jambs) do not stop it. Turning on the spot (slower than ``turn_check_below_mps``),
 the footprint turned as far as the chair turns in ``turn_check_s`` (at most
 ``turn_check_deg``, and no further than the tracker has left to turn plus braking: a
-docking turn 6.5 deg from done was held for ever by a leaf 13 deg ahead) must not come within ``robot.side_margin_m`` of a point (docking
+docking turn 6.5 deg from done was held for ever by a leaf 13 deg ahead) must not come
+within ``robot.side_margin_m`` of a point (docking
 too: a turn through a 4.5 cm pinch beside a wall passed the narrow margin; held at the
 wide one, the docker plans a manoeuvre out), or while a docking manoeuvre planned for a
 tight room is under way, within ``controller.precise_side_margin_m`` (``turn_margin_m``),
