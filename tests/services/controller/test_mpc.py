@@ -11,7 +11,7 @@ from scipy.ndimage import distance_transform_edt
 
 from services.controller import mpc_costs
 from services.controller.mpc import MPCConfig, SamplingMPC, footprint_points
-from shared.config import ControllerConfig, RobotConfig
+from shared.config import ControllerConfig, RobotConfig, SimConfig
 from wheelnav.bench.mpc import (
     RES,
     _grid,
@@ -464,3 +464,40 @@ def test_the_tracker_runs_the_fleets_mpc_section_and_goal_tolerance() -> None:
     assert tracker.mpc.step(0.85, 0.0, 0.0, 0.0, 0.0).state == "arrived"
     with pytest.raises(ValueError, match=r"^controller\.mpc\.guide_offsets_m: needs a lane"):
         Tracker(replace(cfg, mpc=replace(cfg.mpc, guide_offsets_m=[])), RobotConfig(), None)
+
+
+def set_off_time(lag_s: float) -> tuple[float, float]:
+    """Seconds the simulator's chair (its motor lag and limits) takes from standing to 90 %
+    of a 0.5 m/s leg under the MPC told the chair lags ``lag_s``, and the largest change
+    between consecutive commands (m/s)."""
+    from sim.robot import Chair, ChairState
+
+    robot, sim, period = RobotConfig(), SimConfig(), 1.0 / ControllerConfig().rate_hz
+    mpc = SamplingMPC(MPCConfig(**ONE), robot, lag_s=lag_s)
+    mpc.set_path(np.array([[0.0, 0.0], [8.0, 0.0]]), np.array([0.5, 0.5]))
+    mpc.set_distance_field(*corridor_field(1.0))
+    chair = Chair(robot, ChairState(0.0, 0.0, 0.0), sim.motor_lag_s, sim.watchdog_s)
+    t, last, jump = 0.0, 0.0, 0.0
+    while chair.state.v < 0.45 and t < 10.0:
+        s = chair.state
+        cmd = mpc.step(s.x, s.y, s.theta, s.v, s.w, None, period)
+        jump, last = max(jump, abs(cmd.v - last)), cmd.v
+        chair.command(cmd.v, cmd.w, t)
+        chair.step(period, t)
+        t += period
+    return t, jump
+
+
+def test_the_chair_sets_off_at_its_acceleration_limit_through_its_motor_lag() -> None:
+    """The demo's chair took 2.7 s to reach 0.5 m/s: each command was clipped to one
+    period's acceleration above the measured speed, which trails the command by the motor
+    lag, so the chair set off at a third of ``robot.max_accel``. The command may now lead
+    the measured speed by the lag (``controller.brake_latency_s``) too, still changing by
+    no more than one period's acceleration from one command to the next."""
+    robot, period = RobotConfig(), 1.0 / ControllerConfig().rate_hz
+    ideal = 0.45 / robot.max_accel + SimConfig().motor_lag_s
+    t, jump = set_off_time(ControllerConfig().brake_latency_s)
+    assert t <= ideal + 0.3, (t, ideal)
+    assert jump <= robot.max_accel * period + 1e-6
+    t_led_by_a_period, _ = set_off_time(0.0)
+    assert t_led_by_a_period > 2 * ideal  # what it was: the lag unaccounted for
