@@ -80,7 +80,11 @@ class SamplingMPC:
     """
 
     def __init__(
-        self, cfg: MPCConfig, robot: RobotConfig, goal_tolerance_m: float | None = None
+        self,
+        cfg: MPCConfig,
+        robot: RobotConfig,
+        goal_tolerance_m: float | None = None,
+        lag_s: float | None = None,
     ) -> None:
         cfg.validate()
         self.cfg = cfg
@@ -88,6 +92,7 @@ class SamplingMPC:
         self.goal_tolerance_m = (
             ControllerConfig().goal_tolerance_m if goal_tolerance_m is None else goal_tolerance_m
         )
+        self.lag_s = ControllerConfig().brake_latency_s if lag_s is None else lag_s
         self._rng = np.random.default_rng(cfg.seed)
         self._body = footprint_body(robot.footprint, cfg.footprint_spacing_m, cfg.safety_margin_m)
         self._noise = np.empty((cfg.samples, cfg.steps, 2), dtype=np.float32)
@@ -98,6 +103,7 @@ class SamplingMPC:
         self._weights = mpc_costs.weights(cfg)
         self._wall: Field | None = None
         self._nominal: np.ndarray | None = None
+        self._sent = (0.0, 0.0)  # the last command returned (while _nominal is kept)
         self.last_plan = np.zeros((0, 3))  # poses of the chosen sequence, for display
         self.last_colliding = 0.0  # share of samples dropped as colliding last cycle
         self.set_path(np.zeros((0, 2)), np.zeros(0))
@@ -160,6 +166,7 @@ class SamplingMPC:
         """
         if len(self._pts) == 0:
             return Command(0.0, 0.0, "idle")
+        sent = self._sent if self._nominal is not None else None  # last cycle's command
         if not all(map(math.isfinite, (x, y, theta, v, w))):
             self._nominal = None
             return Command(0.0, 0.0, "stale")  # no usable state: stop
@@ -204,7 +211,8 @@ class SamplingMPC:
             seq = self._u[best].copy()
         self._nominal = seq
         self.last_plan = rollout_poses(seq[None], x, y, theta, cfg.dt)[0]
-        cmd_v, cmd_w = self._limit(float(seq[0, 0]), float(seq[0, 1]), v, w, period)
+        cmd_v, cmd_w = self._limit(float(seq[0, 0]), float(seq[0, 1]), v, w, period, sent)
+        self._sent = (cmd_v, cmd_w)
         return Command(cmd_v, cmd_w, "following", progress, to_goal, cross)
 
     def evaluate(
@@ -477,14 +485,40 @@ class SamplingMPC:
         return self._u[members].mean(axis=0)
 
     def _limit(
-        self, v: float, w: float, v_now: float, w_now: float, period: float
+        self,
+        v: float,
+        w: float,
+        v_now: float,
+        w_now: float,
+        period: float,
+        sent: tuple[float, float] | None = None,
     ) -> tuple[float, float]:
-        """Clip a command to what the accelerations allow in ``period``, then to the limits."""
+        """Clip a command to what the accelerations allow, then to the limits.
+
+        It changes by at most what the accelerations give in ``period`` from the last
+        command ``sent`` (from the measured speeds when there is none), and leads the
+        measured speeds by at most what they give in the period and the chair's lag
+        (``lag_s``) together: the measured speed trails the command by the lag, and a
+        command led by one period only set the chair off at a third of ``robot.max_accel``
+        (the demo took 2.7 s to reach 0.5 m/s, 1.4 s lost against the ideal)."""
         r = self.robot
-        dv, dw = r.max_accel * period, r.max_turn_accel * period
-        v = min(max(min(max(v, v_now - dv), v_now + dv), -r.max_reverse_speed), r.max_speed)
-        w = min(max(min(max(w, w_now - dw), w_now + dw), -r.max_turn_rate), r.max_turn_rate)
+        ref_v, ref_w = (v_now, w_now) if sent is None else sent
+        v = _window(v, ref_v, v_now, r.max_accel * period, r.max_accel * (period + self.lag_s))
+        w = _window(
+            w, ref_w, w_now, r.max_turn_accel * period, r.max_turn_accel * (period + self.lag_s)
+        )
+        v = min(max(v, -r.max_reverse_speed), r.max_speed)
+        w = min(max(w, -r.max_turn_rate), r.max_turn_rate)
         return v, w
+
+
+def _window(value: float, sent: float, now: float, step: float, lead: float) -> float:
+    """``value`` within ``step`` of ``sent`` and ``lead`` of ``now``; within ``lead`` of
+    ``now`` alone where the two do not meet (the chair was held while the command ran on)."""
+    lo, hi = max(sent - step, now - lead), min(sent + step, now + lead)
+    if lo > hi:
+        lo, hi = now - lead, now + lead
+    return min(max(value, lo), hi)
 
 
 def _sample_groups(cfg: MPCConfig) -> tuple[np.ndarray, np.ndarray]:

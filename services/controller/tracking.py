@@ -76,7 +76,7 @@ class Tracker:
         geometry.warm_up()
         if cfg.mode == "mpc":
             try:
-                self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m)
+                self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m, cfg.brake_latency_s)
             except ConfigError as exc:  # a rule between fields: name the section's key
                 raise ConfigError(f"controller.mpc.{exc}") from None
             for name, floor in site.floors.items() if site else []:
