@@ -207,9 +207,9 @@ def test_safety_branch_held_past_its_timeout_ends_the_mission_and_says_why() -> 
 
 
 def test_the_demo_door_is_passed_smoothly_without_stopping() -> None:
-    # issue 14: with navigator.door_procedure smooth, the chair does not stop at the door.
-    # 19.0 s of an ideal 17.0 s (112 %; stop-turn-go 27-28 s); the issue's 110 % was
-    # 18.5 s with planner.goal_speed_radius_m 0.5, held back (see its config comment)
+    # issue 14: with navigator.door_procedure smooth, the chair does not stop at the door,
+    # and the mission takes at most 110 % of planned length / 0.5 m/s: 18.2 s of an ideal
+    # 17.0 s (107 %; stop-turn-go 27.5 s) since the MPC's command leads the motor lag
     scenario = load_scenario(ROOT / "scenarios" / "demo.yaml", ["navigator.door_procedure=smooth"])
     out = Capture()
     report = MissionRun(scenario, out=out, fleet_output=out).run()
@@ -217,7 +217,7 @@ def test_the_demo_door_is_passed_smoothly_without_stopping() -> None:
     phases = [p["name"] for p in report["phases"]]
     assert "pass" in phases and not {"correct", "turn", "verify"} & set(phases), phases
     ideal = report["planned_length_m"] / 0.5
-    assert report["sim_time_s"] <= 1.15 * ideal, (report["sim_time_s"], ideal)
+    assert report["sim_time_s"] <= 1.10 * ideal, (report["sim_time_s"], ideal)
     (door,) = report["door_clearance"]
     assert door["min_clearance_m"] >= (1.0 - 0.65) / 2 - 0.03
 
