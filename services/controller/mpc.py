@@ -106,6 +106,7 @@ class SamplingMPC:
         self._sent = (0.0, 0.0)  # the last command returned (while _nominal is kept)
         self.last_plan = np.zeros((0, 3))  # poses of the chosen sequence, for display
         self.last_colliding = 0.0  # share of samples dropped as colliding last cycle
+        self.blocked_note = ""  # why the last cycle was blocked, for the node's log
         self.set_path(np.zeros((0, 2)), np.zeros(0))
 
     # -- inputs ---------------------------------------------------------------------------
@@ -205,7 +206,9 @@ class SamplingMPC:
         if not valid.any():
             self._nominal = None
             self.last_plan = np.zeros((0, 3))
+            self.blocked_note = self._blocked_note(scene, x, y, theta)
             return Command(0.0, 0.0, "blocked", progress, to_goal, cross)
+        self.blocked_note = ""
 
         best = int(np.argmin(np.where(valid, self._cost, np.inf)))
         pick = self._mppi if cfg.selection == "mppi" else self._cluster
@@ -395,6 +398,16 @@ class SamplingMPC:
         drove a corner into a wall at 0.5 m/s twice in the campaign (b6.m04, b9.m01).
         """
         return min(self._body.threshold, self._clearance_now(f, x, y, theta))
+
+    def _blocked_note(self, scene: Scene, x: float, y: float, theta: float) -> str:
+        """Why every rollout collided: each field's reading where the chair stands against
+        the reading a rollout may not go below."""
+        parts = []
+        for name, f, i in (("walls", scene.wall, 8), ("LiDAR", scene.obs, 9)):
+            if f is not None:
+                now = self._clearance_now(f, x, y, theta)
+                parts.append(f"{name} {now:.3f} m (may not go below {scene.params[i]:.3f})")
+        return "every rollout collides; read where it stands: " + (", ".join(parts) or "none")
 
     def _loosen(self, scene: Scene) -> bool:
         """Lower each threshold that is the chair's reading now (nearer than the margin:

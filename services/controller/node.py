@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> None:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
         tracker = Tracker(cc, cfg.robot, site)
-        noted = [""]  # the docker's last manoeuvre note, logged once when it changes
+        noted = ["", ""]  # the docker's manoeuvre note, the MPC's blocked note: logged on change
         latest: dict[str, object] = {}
         poses = PoseHistory(SCAN_POSE_WINDOW_S)
         arrivals = Arrivals(wall=cfg.clock == "wall")  # staleness on this clock (wall time)
@@ -210,6 +210,10 @@ def main(argv: list[str] | None = None) -> None:
                 if tracker.docker.plan_note != noted[0]:
                     noted[0] = tracker.docker.plan_note
                     svc.log.info("%s: %s", tracker.path_id, noted[0])
+                blocked = tracker.mpc.blocked_note if tracker.mpc is not None else ""
+                if blocked and blocked != noted[1]:
+                    noted[1] = blocked
+                    svc.log.info("%s: blocked: %s", tracker.path_id, blocked)
                 cmd_v, cmd_w, state = guard(
                     cmd.v,
                     cmd.w,

@@ -248,8 +248,10 @@ def test_points_all_round_also_block() -> None:
     ring = np.c_[0.2 + 0.9 * np.cos(ang), 0.6 * np.sin(ang)]
     cmd = mpc.step(0.0, 0.0, 0.0, 0.0, 0.0, ring, 0.1)
     assert (cmd.state, cmd.v, cmd.w) == ("blocked", 0.0, 0.0)
+    # the node logs why: what the LiDAR field reads where the chair stands, and the floor
+    assert mpc.blocked_note.startswith("every rollout collides; read where it stands: LiDAR ")
     cmd = mpc.step(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.1)  # the ring is gone: free to go
-    assert cmd.state == "following" and cmd.v > 0.0
+    assert cmd.state == "following" and cmd.v > 0.0 and mpc.blocked_note == ""
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
