@@ -19,7 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from services.controller.safety import guard, guard_points
+from services.controller.safety import describe_hold, guard, guard_points
 from services.controller.tracking import Tracker
 from shared.arrivals import Arrivals
 from shared.estop import EstopLatch, hold_estop
@@ -121,7 +121,8 @@ def main(argv: list[str] | None = None) -> None:
             svc.log.error("cannot start: %s", exc)
             raise SystemExit(2) from None
         tracker = Tracker(cc, cfg.robot, site)
-        noted = ["", ""]  # the docker's manoeuvre note, the MPC's blocked note: logged on change
+        # the docker's manoeuvre note, the MPC's blocked note, the guard's hold: logged on change
+        noted = ["", "", ""]
         latest: dict[str, object] = {}
         poses = PoseHistory(SCAN_POSE_WINDOW_S)
         arrivals = Arrivals(wall=cfg.clock == "wall")  # staleness on this clock (wall time)
@@ -214,6 +215,15 @@ def main(argv: list[str] | None = None) -> None:
                 if blocked and blocked != noted[1]:
                     noted[1] = blocked
                     svc.log.info("%s: blocked: %s", tracker.path_id, blocked)
+                points = near(scan) if scan is not None else None
+                checks = (
+                    cfg.robot,
+                    cc,
+                    cfg.localisation.scan_band_m,
+                    tracker.precise,
+                    tracker.turn_margin(),
+                    cmd.turn_left_rad,
+                )
                 cmd_v, cmd_w, state = guard(
                     cmd.v,
                     cmd.w,
@@ -225,14 +235,14 @@ def main(argv: list[str] | None = None) -> None:
                     None
                     if scan is None
                     else clock.stamp - arrivals.age("scan", scan.stamp, clock.stamp),
-                    near(scan) if scan is not None else None,
-                    cfg.robot,
-                    cc,
-                    cfg.localisation.scan_band_m,
-                    tracker.precise,
-                    tracker.turn_margin(),
-                    cmd.turn_left_rad,
+                    points,
+                    *checks,
                 )
+                if state == "obstacle" and not noted[2]:
+                    noted[2] = describe_hold(cmd.v, cmd.w, points, *checks)
+                    svc.log.info("%s: held: %s", tracker.path_id, noted[2])
+                elif state != "obstacle":
+                    noted[2] = ""
                 status = FollowStatus(
                     clock.stamp,
                     tracker.path_id,

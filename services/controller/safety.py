@@ -34,7 +34,7 @@ import math
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
-from shared.geometry import arc_poses, moves_close_in, turn_closes_in
+from shared.geometry import arc_poses, footprint_gap, moves_close_in, turn_closes_in
 
 GUARD_SLACK_M = 0.05  # guard_points keeps this much beyond the farthest a check reaches
 
@@ -190,17 +190,67 @@ def guard(
         return v, w, state
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
+    held = obstacle_check(
+        v, w, scan_points, robot, cfg, band_m, precise, turn_margin_m, turn_left_rad
+    )
+    if held:
+        return 0.0, 0.0, "obstacle"
+    return v, w, state
+
+
+def obstacle_check(
+    v: float,
+    w: float,
+    scan_points: np.ndarray | None,
+    robot: RobotConfig,
+    cfg: ControllerConfig,
+    band_m: float,
+    precise: bool = False,
+    turn_margin_m: float | None = None,
+    turn_left_rad: float = math.inf,
+) -> str:
+    """Which of :func:`guard`'s obstacle checks holds (v, w): "strip" (a point in the stop
+    zone), "arc" (the footprint along the arc it drives), "turn" (a turn on the spot), or
+    "" for none. The node logs it, with the nearest point, when a hold starts."""
     margin = cfg.precise_side_margin_m if precise else robot.side_margin_m
     half = robot.footprint.width / 2 + margin
     length = stop_zone_length(v, robot, cfg)
     if stop_zone_hit(scan_points, robot, v, length, band_m, half):
-        return 0.0, 0.0, "obstacle"
+        return "strip"
     turning = abs(v) < cfg.turn_check_below_mps
     turn_end = turn_left_rad + braking_turn(w, robot, cfg)
     if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin, turn_end):
-        return 0.0, 0.0, "obstacle"
+        return "arc"
     angle = turn_check_angle(w, robot, cfg, turn_left_rad)
     turn_margin = robot.side_margin_m if turn_margin_m is None else turn_margin_m
     if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, turn_margin):
-        return 0.0, 0.0, "obstacle"
-    return v, w, state
+        return "turn"
+    return ""
+
+
+def describe_hold(
+    v: float,
+    w: float,
+    scan_points: np.ndarray | None,
+    robot: RobotConfig,
+    cfg: ControllerConfig,
+    band_m: float,
+    precise: bool = False,
+    turn_margin_m: float | None = None,
+    turn_left_rad: float = math.inf,
+) -> str:
+    """One line on why :func:`guard` holds (v, w): the check and the scan point nearest
+    the footprint (chair frame), for the log when a hold starts."""
+    check = obstacle_check(
+        v, w, scan_points, robot, cfg, band_m, precise, turn_margin_m, turn_left_rad
+    )
+    text = f"{check or 'no'} check, command v {v:.2f} m/s w {w:.2f} rad/s"
+    if scan_points is None or len(scan_points) == 0:
+        return text
+    fp = robot.footprint
+    pts = scan_points[np.abs(scan_points[:, 2]) < band_m][:, :2].astype(float)
+    if len(pts) == 0:
+        return text
+    gap = footprint_gap(pts, fp.front, fp.rear, fp.width)
+    i = int(np.argmin(gap))
+    return f"{text}; nearest point ({pts[i, 0]:.3f}, {pts[i, 1]:.3f}) m, {gap[i]:.3f} m off"

@@ -8,8 +8,10 @@ import numpy as np
 
 from services.controller.safety import (
     braking_turn,
+    describe_hold,
     guard,
     guard_points,
+    obstacle_check,
     stop_zone_hit,
     stop_zone_length,
     turn_check_angle,
@@ -243,3 +245,18 @@ def test_the_guard_decides_the_same_on_guard_points_as_on_the_whole_scan() -> No
         assert whole == kept
         stops += whole[2] == "obstacle"
     assert 30 < stops < 270  # both answers were exercised
+
+
+def test_a_hold_is_described_by_its_check_and_the_nearest_point() -> None:
+    """The node logs why the guard holds when a hold starts: which check, and the scan
+    point nearest the footprint (a bare "obstacle" sent each campaign replay to a probe)."""
+    fp = ROBOT.footprint
+    ahead = pts((fp.front + 0.1, 0.0), (fp.front + 2.0, 0.5))
+    assert obstacle_check(0.3, 0.0, ahead, ROBOT, CFG, 0.5) == "strip"
+    text = describe_hold(0.3, 0.0, ahead, ROBOT, CFG, 0.5)
+    assert text == (
+        "strip check, command v 0.30 m/s w 0.00 rad/s; nearest point (0.860, 0.000) m, 0.100 m off"
+    )
+    beside = pts((0.0, fp.width / 2 + 0.06))
+    assert obstacle_check(0.0, 0.6, beside, ROBOT, CFG, 0.5) == "turn"
+    assert obstacle_check(0.3, 0.0, beside, ROBOT, CFG, 0.5) == ""
