@@ -482,7 +482,8 @@ class ControllerConfig:
     stop_distance_m: float = field(default=0.25, metadata=check(_non_negative))
     stop_min_distance_m: float = field(default=0.05, metadata=check(_non_negative))
     # and never shorter than the braking distance (this long at the speed, one command
-    # period and the motors' lag, then robot.max_accel) plus stop_min_distance_m
+    # period and the motors' lag, then robot.max_accel) plus stop_min_distance_m; the
+    # MPC's command may lead the measured speed by this lag's worth of acceleration too
     brake_latency_s: float = field(default=0.1, metadata=check(_non_negative))
     # the strip's margin a side of the chair in a precise pass or docking, instead of
     # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
