@@ -19,7 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from services.controller.safety import describe_hold, guard, guard_points
+from services.controller.safety import describe_hold, guard, guard_points, obstacle_check
 from services.controller.tracking import Tracker
 from shared.arrivals import Arrivals
 from shared.estop import EstopLatch, hold_estop
@@ -239,7 +239,8 @@ def main(argv: list[str] | None = None) -> None:
                     *checks,
                 )
                 if state == "obstacle" and not noted[2]:
-                    noted[2] = describe_hold(cmd.v, cmd.w, points, *checks)
+                    check = obstacle_check(cmd.v, cmd.w, points, *checks)
+                    noted[2] = describe_hold(check, cmd.v, cmd.w, points, cfg.robot, checks[2])
                     svc.log.info("%s: held: %s", tracker.path_id, noted[2])
                 elif state != "obstacle":
                     noted[2] = ""

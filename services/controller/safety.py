@@ -229,21 +229,16 @@ def obstacle_check(
 
 
 def describe_hold(
+    check: str,
     v: float,
     w: float,
     scan_points: np.ndarray | None,
     robot: RobotConfig,
-    cfg: ControllerConfig,
     band_m: float,
-    precise: bool = False,
-    turn_margin_m: float | None = None,
-    turn_left_rad: float = math.inf,
 ) -> str:
-    """One line on why :func:`guard` holds (v, w): the check and the scan point nearest
-    the footprint (chair frame), for the log when a hold starts."""
-    check = obstacle_check(
-        v, w, scan_points, robot, cfg, band_m, precise, turn_margin_m, turn_left_rad
-    )
+    """One line on why :func:`guard` holds (v, w): the ``check`` that holds (see
+    :func:`obstacle_check`) and the scan point nearest the footprint (chair frame), for the
+    log when a hold starts."""
     text = f"{check or 'no'} check, command v {v:.2f} m/s w {w:.2f} rad/s"
     if scan_points is None or len(scan_points) == 0:
         return text

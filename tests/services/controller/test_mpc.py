@@ -254,6 +254,15 @@ def test_points_all_round_also_block() -> None:
     assert cmd.state == "following" and cmd.v > 0.0 and mpc.blocked_note == ""
 
 
+def leaf_scene(gap: float, xs: np.ndarray, length: float):
+    """A straight path ``length`` m along x in an open room, with a leaf's face (LiDAR
+    points at ``xs``) ``gap`` m to the right of the chair standing at its start."""
+    fp = RobotConfig().footprint
+    occ, origin = _grid(-2.0, -2.0, 9.0, 2.0, [(-1.5, -1.5, 8.5, 1.5, True)])
+    leaf = np.c_[xs, np.full_like(xs, -(fp.width / 2 + gap))]
+    return _scene("leaf", occ, origin, [(0, 0), (length, 0)], (0.0, 0.0, 0.0), leaf)
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_leaf_just_beside_the_chair_does_not_block_it_nor_come_nearer(backend: str) -> None:
     """Campaign b3.m07 and 14 other "blocked (blocked)" missions: after a pass beside an open
@@ -261,11 +270,7 @@ def test_a_leaf_just_beside_the_chair_does_not_block_it_nor_come_nearer(backend:
     (the margin plus a LiDAR cell's rounding), so every rollout counted as colliding from
     its first step and the chair never moved. Here a leaf 9 cm to the right along the
     first 0.9 m of a straight path."""
-    fp = RobotConfig().footprint
-    occ, origin = _grid(-2.0, -2.0, 9.0, 2.0, [(-1.5, -1.5, 8.5, 1.5, True)])
-    xs = np.linspace(-0.6, 0.9, 31)
-    leaf = np.c_[xs, np.full_like(xs, -(fp.width / 2 + 0.09))]
-    scene = _scene("leaf", occ, origin, [(0, 0), (6.5, 0)], (0.0, 0.0, 0.0), leaf)
+    scene = leaf_scene(0.09, np.linspace(-0.6, 0.9, 31), 6.5)
     result = closed_loop(MPCConfig(backend=backend, **ONE), scene, period_s=0.1)
     assert result["state"] == "arrived"
     assert result["min_clearance_m"] >= 0.05
@@ -513,11 +518,7 @@ def test_beside_a_leaf_a_lucky_reading_where_it_stands_does_not_block_it(backend
     coming nearer, and where the chair stood at a cell's higher reading, every rollout
     did. It stood "blocked" until the recoveries gave up. Here a leaf 5.1 cm to the right
     of a straight path."""
-    fp = RobotConfig().footprint
-    occ, origin = _grid(-2.0, -2.0, 9.0, 2.0, [(-1.5, -1.5, 8.5, 1.5, True)])
-    xs = np.linspace(-0.4, 0.4, 41)
-    leaf = np.c_[xs, np.full_like(xs, -(fp.width / 2 + 0.051))]
-    scene = _scene("leaf", occ, origin, [(0, 0), (2.1, 0)], (0.0, 0.0, 0.0), leaf)
+    scene = leaf_scene(0.051, np.linspace(-0.4, 0.4, 41), 2.1)
     result = closed_loop(MPCConfig(backend=backend, **ONE), scene, period_s=0.1)
     assert result["state"] == "arrived", result
     assert result["min_clearance_m"] >= 0.04  # 6 mm nearer at most, as on the way to the block

@@ -253,7 +253,7 @@ def test_a_hold_is_described_by_its_check_and_the_nearest_point() -> None:
     fp = ROBOT.footprint
     ahead = pts((fp.front + 0.1, 0.0), (fp.front + 2.0, 0.5))
     assert obstacle_check(0.3, 0.0, ahead, ROBOT, CFG, 0.5) == "strip"
-    text = describe_hold(0.3, 0.0, ahead, ROBOT, CFG, 0.5)
+    text = describe_hold("strip", 0.3, 0.0, ahead, ROBOT, 0.5)
     assert text == (
         "strip check, command v 0.30 m/s w 0.00 rad/s; nearest point (0.860, 0.000) m, 0.100 m off"
     )
