@@ -59,6 +59,7 @@ __all__ = ["Evaluation", "MPCConfig", "SamplingMPC", "footprint_points", "rollou
 
 NEAR_SPEED = 0.1  # m/s: the fastest a cycle samples nearer than the margin (_threshold)
 NEAR_TURN = 0.3  # rad/s
+THR_WALL, THR_OBS = 8, 9  # where Scene.params holds each field's collision reading
 
 
 @dataclass
@@ -168,6 +169,7 @@ class SamplingMPC:
         if len(self._pts) == 0:
             return Command(0.0, 0.0, "idle")
         sent = self._sent if self._nominal is not None else None  # last cycle's command
+        self.blocked_note = ""
         if not all(map(math.isfinite, (x, y, theta, v, w))):
             self._nominal = None
             return Command(0.0, 0.0, "stale")  # no usable state: stop
@@ -208,7 +210,6 @@ class SamplingMPC:
             self.last_plan = np.zeros((0, 3))
             self.blocked_note = self._blocked_note(scene, x, y, theta)
             return Command(0.0, 0.0, "blocked", progress, to_goal, cross)
-        self.blocked_note = ""
 
         best = int(np.argmin(np.where(valid, self._cost, np.inf)))
         pick = self._mppi if cfg.selection == "mppi" else self._cluster
@@ -362,8 +363,8 @@ class SamplingMPC:
                 cfg.obstacle_influence_m,
                 cfg.v_window_min,
                 cfg.v_window_max,
-                thr_w,
-                thr_o,
+                thr_w,  # THR_WALL
+                thr_o,  # THR_OBS
             ]
         )
         return Scene(
@@ -399,11 +400,17 @@ class SamplingMPC:
         """
         return min(self._body.threshold, self._clearance_now(f, x, y, theta))
 
+    @staticmethod
+    def _collision_fields(scene: Scene) -> tuple[tuple[str, Field | None, int], ...]:
+        """Each field a rollout may collide with: its name, the field, and where
+        ``scene.params`` holds the reading a rollout may not go below."""
+        return (("walls", scene.wall, THR_WALL), ("LiDAR", scene.obs, THR_OBS))
+
     def _blocked_note(self, scene: Scene, x: float, y: float, theta: float) -> str:
         """Why every rollout collided: each field's reading where the chair stands against
         the reading a rollout may not go below."""
         parts = []
-        for name, f, i in (("walls", scene.wall, 8), ("LiDAR", scene.obs, 9)):
+        for name, f, i in self._collision_fields(scene):
             if f is not None:
                 now = self._clearance_now(f, x, y, theta)
                 parts.append(f"{name} {now:.3f} m (may not go below {scene.params[i]:.3f})")
@@ -418,7 +425,7 @@ class SamplingMPC:
         "blocked" (door bench, 0.80 m hinged). Only then: in the first try, "nearer" stays
         exact, and the guard keeps the exact rule on the scan's points."""
         loosened = False
-        for i, f in ((8, scene.wall), (9, scene.obs)):
+        for _, f, i in self._collision_fields(scene):
             if f is not None and scene.params[i] < self._body.threshold:
                 scene.params[i] -= f.res
                 loosened = True

@@ -240,7 +240,9 @@ def main(argv: list[str] | None = None) -> None:
                 )
                 if state == "obstacle" and not noted[2]:
                     check = obstacle_check(cmd.v, cmd.w, points, *checks)
-                    noted[2] = describe_hold(check, cmd.v, cmd.w, points, cfg.robot, checks[2])
+                    noted[2] = describe_hold(
+                        check, cmd.v, cmd.w, points, cfg.robot, cfg.localisation.scan_band_m
+                    )
                     svc.log.info("%s: held: %s", tracker.path_id, noted[2])
                 elif state != "obstacle":
                     noted[2] = ""
