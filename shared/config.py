@@ -300,7 +300,8 @@ class LocalisationConfig:
     # a scan below min_inlier_ratio that still has clutter_inlier_ratio of its points on
     # the map's walls and whose match moves the pose at most clutter_correction_m and
     # clutter_correction_rad is cluttered (what the map lacks hides the walls), not a miss:
-    # the pose goes on on odometry
+    # it corrects the pose that little (those bounds grow by the drift below with what it
+    # drove and turned on odometry alone since its last correction)
     clutter_inlier_ratio: float = field(default=0.25, metadata=check(_fraction))
     clutter_correction_m: float = field(default=0.05, metadata=check(_non_negative))
     clutter_correction_rad: float = field(default=0.035, metadata=check(_non_negative))
@@ -315,11 +316,13 @@ class LocalisationConfig:
     # match (a hall wider than twice the LiDAR's reach) and is no miss; the pose goes on on
     # odometry, and after reacquire_after_m of that the first scan seeing walls again is
     # matched by a search around it, drift_per_m (m) and drift_rad_per_m (rad) wider for
-    # each metre so driven
+    # each metre so driven, and drift_rad_per_rad (rad) for each radian turned (wheel
+    # odometry turns a few per cent short or long)
     min_scan_points: int = field(default=20, metadata=check(_positive))
     reacquire_after_m: float = field(default=0.5, metadata=check(_non_negative))
     drift_per_m: float = field(default=0.1, metadata=check(_non_negative))
     drift_rad_per_m: float = field(default=0.02, metadata=check(_non_negative))
+    drift_rad_per_rad: float = field(default=0.05, metadata=check(_non_negative))
     # lost, the pose is searched for on every relocalise_every_scans-th scan, widening to
     # the whole floor, each search at most relocalise_budget evaluations (about 2 s on the
     # development machine); after relocalise_attempts failures it stays lost and says why
