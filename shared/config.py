@@ -491,6 +491,12 @@ class ControllerConfig:
     # the strip's margin a side of the chair in a precise pass or docking, instead of
     # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
     precise_side_margin_m: float = field(default=0.02, metadata=check(_non_negative))
+    # the scan points those checks see are averaged per azimuth bin of guard_bin_deg (0:
+    # every point as read), over the bin's nearest cluster (split where the ranges in order
+    # jump by more than guard_gap_m, about three times the LiDAR's range noise): that noise
+    # (1 cm in the simulator) read a jamb 4.1 cm away as 1.8 cm, inside the precise margin
+    guard_bin_deg: float = field(default=0.5, metadata=check(_non_negative))
+    guard_gap_m: float = field(default=0.03, metadata=check(_non_negative))
     # turning on the spot (slower than turn_check_below_mps): the footprint turned as far
     # as the chair turns in turn_check_s, at most turn_check_deg (and no further than a
     # docking turn has left, plus braking), must stay clear of scan points (a slow turn

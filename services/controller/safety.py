@@ -142,13 +142,47 @@ def braking_turn(w: float, robot: RobotConfig, cfg: ControllerConfig) -> float:
     return abs(w) * cfg.brake_latency_s + w * w / (2.0 * robot.max_turn_accel)
 
 
+def near_surface(points: np.ndarray, bin_rad: float, gap_m: float) -> np.ndarray:
+    """One point per azimuth bin of ``bin_rad`` (0: every point as it is): the mean of the
+    bin's nearest cluster, its points in order of range up to the first gap of more than
+    ``gap_m``. The rings and beams that see one patch of a surface average out the LiDAR's
+    range noise (it lies along the beam; a cluster, not a window from the nearest point,
+    so one reading far out in the noise does not split its surface); what lies farther in
+    the same direction is behind the nearer thing, as a planar LiDAR sees it, and a thing
+    a few beams see is kept where it is read."""
+    if bin_rad <= 0 or len(points) == 0:
+        return points
+    r = np.hypot(points[:, 0], points[:, 1]).astype(np.float64)
+    b = np.floor((np.arctan2(points[:, 1], points[:, 0]) + math.pi) / bin_rad).astype(np.int64)
+    order = np.lexsort((r, b))
+    b, r = b[order], r[order]
+    first = np.ones(len(b), dtype=bool)
+    first[1:] = b[1:] != b[:-1]
+    gap = np.zeros(len(b), dtype=bool)
+    gap[1:] = (r[1:] - r[:-1] > gap_m) & ~first[1:]
+    # a point is in its bin's nearest cluster until the bin's first gap
+    starts = np.flatnonzero(first)
+    gaps_before = np.cumsum(gap)
+    near = gaps_before == gaps_before[starts][np.cumsum(first) - 1]
+    bin_of = (np.cumsum(first) - 1)[near]
+    counts = np.bincount(bin_of, minlength=len(starts))
+    chosen = points[order[near]]
+    out = np.empty((len(starts), points.shape[1]), dtype=np.float64)
+    for k in range(points.shape[1]):
+        out[:, k] = np.bincount(bin_of, weights=chosen[:, k], minlength=len(starts)) / counts
+    return out.astype(points.dtype, copy=False)
+
+
 def guard_points(
     points: np.ndarray | None, robot: RobotConfig, cfg: ControllerConfig, band_m: float
 ) -> np.ndarray | None:
     """The scan points (N, 3, robot frame) any check of :func:`guard` can reach: inside the
     height band and near enough for the longest stop zone (at twice the top speed) or a
-    turn's widest margin. Worked out once per scan, it leaves the guard a few hundred of a
-    VLP-16's 30,000 points; the checks see the same hits as on the whole scan."""
+    turn's widest margin, averaged in azimuth bins of ``cfg.guard_bin_deg`` (their nearest
+    clusters, split at gaps over ``cfg.guard_gap_m``: :func:`near_surface`): the simulator's
+    1 cm range noise read a jamb 4.1 cm from the chair as 1.8 cm, inside the precise margin,
+    and held it in an 0.80 m door. Worked out once per scan, it leaves the guard a few
+    hundred points."""
     if points is None or len(points) == 0:
         return points
     fp = robot.footprint
@@ -161,7 +195,7 @@ def guard_points(
         + GUARD_SLACK_M
     )
     keep = (np.abs(points[:, 2]) < band_m) & (np.hypot(points[:, 0], points[:, 1]) < reach)
-    return points[keep]
+    return near_surface(points[keep], math.radians(cfg.guard_bin_deg), cfg.guard_gap_m)
 
 
 def guard(
