@@ -6,11 +6,12 @@ import argparse
 import io
 from pathlib import Path
 
+import pytest
 import yaml
 
-from shared.config import FleetConfig
+from shared.config import ConfigError, FleetConfig
 from wheelnav.campaign.results import ResultStore, door_requirement_m, judge
-from wheelnav.campaign.runner import CampaignSpec, add_commands, generate
+from wheelnav.campaign.runner import CampaignSpec, add_commands, generate, reusable, run
 from wheelnav.campaign.summary import (
     figures,
     format_failures,
@@ -222,3 +223,23 @@ def test_the_time_ratio_is_taken_against_the_first_route() -> None:
     # a re-plan from near the goal leaves a short last route: not the mission's ideal
     row = judge(scenario(), report(True, planned_length_m=1.0, first_planned_length_m=10.0))
     assert row["time_ratio"] == 2.0
+
+
+def test_a_campaign_runs_with_config_overrides_and_keeps_their_rows_apart(tmp_path: Path) -> None:
+    """``wheelnav campaign --set navigator.door_procedure=smooth``: every mission with the
+    override; a row stored without it (or with another) is run again, not reused; a key
+    that does not exist is refused before any building is drawn."""
+    parser = argparse.ArgumentParser()
+    add_commands(parser.add_subparsers())
+    args = parser.parse_args(["campaign", "--set", "navigator.door_procedure=smooth"])
+    assert args.overrides == ["navigator.door_procedure=smooth"]
+    smooth = CampaignSpec(tmp_path, overrides=("navigator.door_procedure=smooth",))
+    plain = CampaignSpec(tmp_path)
+    row = {"id": "b0.m00", "outcome": "success"}  # stored before overrides were recorded
+    assert reusable(row, plain) and not reusable(row, smooth)
+    assert reusable(dict(row, overrides=["navigator.door_procedure=smooth"]), smooth)
+    assert not reusable(None, plain)
+    bad = CampaignSpec(tmp_path, overrides=("navigator.door_procedur=smooth",))
+    with pytest.raises(ConfigError, match="door_procedur"):
+        run(bad, err=io.StringIO(), out=io.StringIO())
+    assert not (tmp_path / "buildings").exists()

@@ -8,7 +8,8 @@ mission comes from how its building was built, never from a run. With ``world_di
 the simulator builds a world that differs from the map the stack is given (doors moved,
 furniture added and removed, a wall moved, people standing); those buildings go into
 ``b<seed>w/``, so their rows never mix with those of the same seed's building drawn
-without it.
+without it. ``--set KEY=VALUE`` overrides a config value in every mission (for example
+``navigator.door_procedure=smooth``); a row stored with other overrides is run again.
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from shared import config as config_mod
+from shared.config import FleetConfig
+from shared.service import add_override_argument
 from wheelnav.campaign.results import ResultStore, judge
 from wheelnav.campaign.summary import (
     figures,
@@ -45,6 +49,18 @@ class CampaignSpec:
     floors_max: int = 3
     only: tuple[str, ...] = ()  # mission ids (or prefixes) to run; empty: all
     world_differs: bool = False  # the simulator's world differs from the stack's map
+    overrides: tuple[str, ...] = ()  # KEY=VALUE config overrides for every mission
+
+
+def check_overrides(spec: CampaignSpec) -> None:
+    """Raise ConfigError naming the key if an override is not a valid config value."""
+    config_mod.from_dict(FleetConfig, config_mod.apply_overrides({}, list(spec.overrides)))
+
+
+def reusable(row: dict[str, Any] | None, spec: CampaignSpec) -> bool:
+    """A stored row stands for this campaign if it ran with the same overrides (a row from
+    before overrides were recorded ran with none)."""
+    return row is not None and list(row.get("overrides", [])) == list(spec.overrides)
 
 
 def building_folder(spec: CampaignSpec, seed: int) -> Path:
@@ -82,7 +98,9 @@ def generate(spec: CampaignSpec, err: TextIO = sys.stderr) -> list[dict[str, Any
 
 
 def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) -> dict[str, Any]:
-    """Generate, run what has not run yet, print the tables; the campaign's JSON document."""
+    """Generate, run what has not run yet, print the tables; the campaign's JSON document.
+    Raises ConfigError, before anything runs, on an override that names no config key."""
+    check_overrides(spec)
     buildings = generate(spec, err)
     store = ResultStore(spec.out / "results")
     todo = [
@@ -97,8 +115,8 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
     for i, (folder, path) in enumerate(todo, 1):
         mid = mission_id(folder, path)
         row = store.get(mid)
-        if row is None:
-            scenario = load_scenario(path)
+        if not reusable(row, spec):
+            scenario = load_scenario(path, spec.overrides)
             err.write(f"[{i:3d}/{len(todo)}] {mid} ({scenario.kind or '-'}) ...")
             err.flush()
             report = MissionRun(scenario, quiet=True).run()
@@ -106,10 +124,15 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
             saved.parent.mkdir(parents=True, exist_ok=True)
             saved.write_text(json.dumps(report, indent=1, default=str))
             row = {"id": mid, **judge(scenario, report), "mission": mid, "report": str(saved)}
+            row["overrides"] = list(spec.overrides)
             store.put(row)
             fresh += 1
             elapsed = time.monotonic() - started
-            eta = elapsed / fresh * sum(store.get(mission_id(f, p)) is None for f, p in todo)
+            eta = (
+                elapsed
+                / fresh
+                * sum(not reusable(store.get(mission_id(f, p)), spec) for f, p in todo)
+            )
             err.write(
                 f" {row['outcome']} ({'as expected' if row['as_expected'] else 'NOT as expected'}"
                 f", {row['sim_time_s']:.0f} s sim, {report['wall_time_s']:.0f} s wall; "
@@ -126,6 +149,7 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
             "missions_per_building": spec.missions,
             "floors_max": spec.floors_max,
             "world_differs": spec.world_differs,
+            "overrides": list(spec.overrides),
         },
         "figures": figures(rows, len(todo)),
         "rows": rows,
@@ -165,6 +189,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         help="the simulator's world differs from the map: doors moved up to 0.20 m, "
         "furniture added and removed, a wall moved, people standing (buildings b<seed>w)",
     )
+    add_override_argument(p)
     p.set_defaults(run=_cli)
 
 
@@ -180,7 +205,9 @@ def _cli(args: argparse.Namespace) -> int:
         args.floors_max,
         tuple(args.only),
         args.world_differs,
+        tuple(args.overrides),
     )
+    check_overrides(spec)  # before --fresh forgets anything
     if args.fresh:
         for path in (spec.out / "results").glob("*.json"):
             if not spec.only or any(path.stem.startswith(o) for o in spec.only):
