@@ -58,6 +58,7 @@ from shared.geometry import (
     in_footprint,
     moves_close_in,
     turn_closes_in,
+    turn_steps,
     wrap_angle,
 )
 
@@ -67,7 +68,6 @@ MIN_TURN = 0.08  # rad/s
 LEAVE_FACTOR = 2.0  # the final stage starts over if the error grows past this x near_m
 SWITCH_RAD = math.radians(20)  # hysteresis of the forwards / backwards choice
 SWEEP_RAD = math.radians(15)  # a turn on the spot looks this far ahead for its corners
-LONG_STEP_RAD = math.radians(5)  # the long way round is checked at this step, all of it
 STUCK_S = 1.5  # commanded to move, not moving this long: plan a manoeuvre
 STUCK_M, STUCK_RAD = 0.01, math.radians(1)  # what counts as moving
 VIA_TOLERANCE_M = 0.03  # how near each pose of a manoeuvre is reached
@@ -513,7 +513,7 @@ class Docker:
 
     def _sweeps_all(self, w: float, turn_rad: float) -> bool:
         """True if turning on the spot the way of ``w`` by the whole of ``turn_rad`` (at
-        ``LONG_STEP_RAD`` steps) brings an obstacle point within ``margin_m`` of the
+        ``turn_steps`` poses) brings an obstacle point within ``margin_m`` of the
         footprint, or one already that near nearer still: the long way round is taken only
         when all of it is clear, not its first ``SWEEP_RAD`` (on a long turn the corners
         sweep nearly their whole circles)."""
@@ -521,7 +521,7 @@ class Docker:
         if local is None:
             return False
         fp = self.footprint
-        steps = max(1, math.ceil(turn_rad / LONG_STEP_RAD))
+        steps = turn_steps(turn_rad, fp.front, fp.rear, fp.width)
         angles = np.linspace(turn_rad / steps, turn_rad, steps)
         poses = [(0.0, 0.0, math.copysign(float(a), w)) for a in angles]
         return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
@@ -536,7 +536,8 @@ class Docker:
         if local is None or abs(v) < 1e-6:
             return False
         fp = self.footprint
-        poses = arc_poses(math.copysign(dist, v), w / v, max_turn_rad=turn_rad)
+        steps = turn_steps(min(abs(dist * w / v), turn_rad), fp.front, fp.rear, fp.width)
+        poses = arc_poses(math.copysign(dist, v), w / v, steps=steps, max_turn_rad=turn_rad)
         return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
 
     def _local_points(self) -> np.ndarray | None:

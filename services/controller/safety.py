@@ -34,7 +34,13 @@ import math
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
-from shared.geometry import arc_poses, footprint_gap, moves_close_in, turn_closes_in
+from shared.geometry import (
+    arc_poses,
+    footprint_gap,
+    moves_close_in,
+    turn_closes_in,
+    turn_steps,
+)
 
 GUARD_SLACK_M = 0.05  # guard_points keeps this much beyond the farthest a check reaches
 
@@ -102,7 +108,10 @@ def arc_sweep_hit(
         return False
     fp = robot.footprint
     pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
-    poses = arc_poses(length_m if v > 0 else -length_m, w / v, max_turn_rad=max_turn_rad)
+    turn = min(abs(length_m * w / v), max_turn_rad)
+    steps = turn_steps(turn, fp.front, fp.rear, fp.width)
+    length = length_m if v > 0 else -length_m
+    poses = arc_poses(length, w / v, steps=steps, max_turn_rad=max_turn_rad)
     return moves_close_in(pts, fp.front, fp.rear, fp.width, margin_m, poses)
 
 
