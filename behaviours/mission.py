@@ -516,9 +516,6 @@ def _smooth_pass(cp, route_id: str, p: EntryParams) -> SmoothDoorPass:
     n = (math.cos(a.theta), math.sin(a.theta))
     lead = max(0.0, (c.x - a.x) * n[0] + (c.y - a.y) * n[1])
     through = max(0.1, (e.x - c.x) * n[0] + (e.y - c.y) * n[1])
-    # the approach pose is on the free opening's middle line (a hinged leaf standing in
-    # the opening moves it a quarter of its thickness off the door's middle)
-    offset = -(a.x - c.x) * n[1] + (a.y - c.y) * n[0]
     path = Path(
         0.0,
         f"{route_id}.smooth.{cp.id}",
@@ -526,7 +523,7 @@ def _smooth_pass(cp, route_id: str, p: EntryParams) -> SmoothDoorPass:
         np.array([[a.x, a.y], [e.x, e.y]]),
         np.array([p.cruise_speed, 0.0]),
         precise=True,
-        door=[c.x, c.y, a.theta, cp.width_m, lead, through, offset],
+        door=[c.x, c.y, a.theta, cp.width_m, lead, through],
     )
     return SmoothDoorPass(
         cp.id,

@@ -183,11 +183,9 @@ class Path(Msg):
     ``keep_out``: segments (x1, y1, x2, y2) a docking manoeuvre counts as walls: the
     doorway of the door it docks before, which it must not turn in nor go through.
     ``door``: set, the path is a smooth pass through a door, [x, y, heading, width_m,
-    lead_m, through_m] and optionally line_offset_m: the mapped door centre, the heading
-    through it, its width, where the curve joins the centre line (``lead_m`` before the
-    plane), where the pass ends (``through_m`` past it) and the free opening's middle, left
-    of the heading, from the opening's (a hinged leaf standing open in it; 0 if absent);
-    the controller steers onto the door it sees in the scan
+    lead_m, through_m]: the mapped door centre, the heading through it, its width, where
+    the curve joins the centre line (``lead_m`` before the plane) and where the pass ends
+    (``through_m`` past it); the controller steers onto the door it sees in the scan
     (services/controller/smooth_pass.py), at up to ``v_ref[0]``; the waypoints are the
     pass as planned (approach to exit pose).
     """
@@ -208,17 +206,12 @@ class Path(Msg):
 
     def validate(self) -> None:
         n = len(self.waypoints)
-        if self.door and (
-            len(self.door) not in (6, 7) or not all(math.isfinite(v) for v in self.door)
-        ):
+        if self.door and (len(self.door) != 6 or not all(math.isfinite(v) for v in self.door)):
             raise Invalid(
-                "door",
-                f"{len(self.door)} value(s): [x, y, heading, width, lead, through(, line_offset)]",
+                "door", f"{len(self.door)} value(s): [x, y, heading, width, lead, through]"
             )
         if self.door and (self.door[3] < 0 or self.door[4] < 0 or self.door[5] <= 0):
             raise Invalid("door", "width and lead must be >= 0, through > 0 (metres)")
-        if len(self.door) == 7 and abs(self.door[6]) * 2 >= max(self.door[3], 1e-9):
-            raise Invalid("door", "line_offset must be under half the width")
         if self.door and n == 0:
             raise Invalid("door", "a door pass needs its waypoints")
         _same_length("v_ref", self.v_ref, "waypoints", n, "waypoint(s)")

@@ -44,9 +44,6 @@ class PassSettings:
     lookahead_m: float = 0.5
     join_m: float = 0.5  # the scan's doorway is the mapped one within this distance
     door_width: float = 0.0  # the mapped width (0: unknown: the doorway speed applies)
-    # the free opening's middle, left of the heading through it, from the opening's: a
-    # hinged leaf standing open at a jamb takes half its thickness from the opening
-    line_offset_m: float = 0.0
     chair_width: float = 0.65
     front_m: float = 0.76
     rear_m: float = 0.35
@@ -70,10 +67,8 @@ class SmoothPass:
         self.scan_cfg = scan or DoorScanConfig()
         self.mapped = np.array(door_centre, dtype=float)
         self.normal = np.array([math.cos(door_normal), math.sin(door_normal)])
-        self.left = np.array([-self.normal[1], self.normal[0]])  # the line offset's way
         self.tracker = DoorTracker(self.scan_cfg.join_m)
-        # the mapped door's free middle until the scan shows the door
-        self.centre = self.mapped + self.settings.line_offset_m * self.left
+        self.centre = self.mapped.copy()  # the mapped door until the scan shows it
         self.width = self.settings.door_width  # as the scan shows it, once it does
         self.seen = 0  # sightings fused into the estimate used
 
@@ -91,15 +86,6 @@ class SmoothPass:
             self.centre, self.seen, self.width = best.centre, best.sightings, best.width
             n = best.normal if np.dot(best.normal, self.normal) > 0 else -best.normal
             self.normal = n
-            offset = self.settings.line_offset_m
-            # the scan's jambs are the opening's unless a leaf swung open towards the chair
-            # stood for one (its face, a narrower doorway by half the leaf or more): then
-            # its middle is the free one already
-            whole = self.settings.door_width <= 0 or (
-                best.width > self.settings.door_width - abs(offset)
-            )
-            if whole:
-                self.centre = best.centre + offset * self.left
 
     def doorway_speed(self) -> float:
         """The most in the doorway: the side gap times ``gap_rate``, at most

@@ -139,8 +139,7 @@ class Tracker:
         self._precise = precise
         self.smooth = None
         if door and len(waypoints) > 0:
-            cx, cy, heading, width, lead, through = door[:6]
-            offset = door[6] if len(door) > 6 else 0.0
+            cx, cy, heading, width, lead, through = door
             speed = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else MIN_SMOOTH_SPEED
             cfg, fp = self.cfg, self.robot.footprint
             settings = PassSettings(
@@ -150,7 +149,6 @@ class Tracker:
                 through_m=through,
                 lookahead_m=cfg.smooth_lookahead_m,
                 door_width=width,
-                line_offset_m=offset,
                 chair_width=fp.width,
                 front_m=fp.front,
                 rear_m=fp.rear,

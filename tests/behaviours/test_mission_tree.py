@@ -754,7 +754,7 @@ def test_a_door_seen_open_from_the_leg_is_passed_without_stopping() -> None:
     fleet.x = 0.2
     tree.tick()
     smooth = fleet.sent[-1]
-    assert smooth.door == pytest.approx([2.2, 0.0, 0.0, 1.0, 1.2, 1.0, 0.0]) and smooth.precise
+    assert smooth.door == pytest.approx([2.2, 0.0, 0.0, 1.0, 1.2, 1.0]) and smooth.precise
     assert fleet.stops == 0  # no stop between the leg and the pass
     for _ in range(3):  # the door open by the building and by the LiDAR in 3 scans
         _following(fleet, 1.5)

@@ -6,14 +6,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
-from services.controller.smooth_pass import FALLBACK, RUNNING, THROUGH, PassSettings, SmoothPass
-from shared.config import RobotConfig, load
-from shared.site import load_site
-from sim.simulation import Simulation
+from services.controller.smooth_pass import FALLBACK, RUNNING, THROUGH, SmoothPass
+from shared.config import RobotConfig
 from tests.sim.test_simulation import make
-from wheelnav.bench.doors import door_site
 
 
 def _pass(x: float, y: float, theta: float, mapped_off: float = 0.0) -> dict:
@@ -77,30 +73,3 @@ def test_the_scan_decides_when_the_mapped_door_is_10_cm_off() -> None:
 
 def test_facing_away_it_asks_for_stop_turn_go() -> None:
     assert _pass(3.0, 2.7, math.pi)["state"] == FALLBACK
-
-
-@pytest.mark.parametrize("swing", ["right", "left"])
-def test_the_pass_aims_at_the_free_middle_beside_a_hinged_leaf(tmp_path, swing: str) -> None:
-    """Door bench, 0.80 m hinged door, leaf swung open into the far room ("right"): the
-    scan sees the jambs (the leaf is behind the wall's face) and the pass aimed at the
-    opening's middle, a quarter of the leaf's thickness (1.25 cm) from the free opening's,
-    and kept 2.8 cm from the leaf where 3.25 cm is asked. The path's door now says where
-    the free middle is (``line_offset_m``); where the scan takes the face of a leaf swung
-    towards the chair for a jamb ("left") its doorway's middle is the free one already."""
-    site = load_site(door_site(tmp_path, 0.80, "hinged", 4.0, swing))
-    door = site.doors[0]
-    free_y = door.pass_centre[1]
-    over = ["sim.start.place=", "sim.start.x=5.6", "sim.start.y=4.0", "sim.start.theta=0.0"]
-    sim = Simulation(load(None, [*over, "sim.seed=1"]), site)
-    sim.set_door_openings([door.id], [1.0])
-    settings = PassSettings(door_width=door.width_m, line_offset_m=free_y - 4.0)
-    smooth = SmoothPass((8.0, 4.0), 0.0, settings)
-    scan = None
-    while sim.state.x < 7.0 and sim.time < 30.0:
-        v, w, state = smooth.step((sim.state.x, sim.state.y, sim.state.theta), scan)
-        assert state == RUNNING
-        sim.command(v, w)
-        scan = sim.step().scan
-    sim.close()
-    assert smooth.seen > 5, "the scan never showed the door"
-    assert abs(smooth.centre[1] - free_y) < 0.005, (smooth.centre, free_y)
