@@ -84,6 +84,15 @@ def arc_poses(
     return out
 
 
+def swept_arc_poses(
+    length: float, curvature: float, max_turn_rad: float, front: float, rear: float, width: float
+) -> list[tuple[float, float, float]]:
+    """:func:`arc_poses` at as many poses as the turn along them needs (:func:`turn_steps`)."""
+    turn = min(abs(length * curvature), max_turn_rad)
+    steps = turn_steps(turn, front, rear, width)
+    return arc_poses(length, curvature, steps=steps, max_turn_rad=max_turn_rad)
+
+
 def moves_close_in(
     xy: np.ndarray,
     front: float,

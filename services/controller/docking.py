@@ -54,11 +54,10 @@ from services.controller.manoeuvre import Budget, ManoeuvreBody, Room, plan_mano
 from shared.config import ControllerConfig, Footprint, RobotConfig
 from shared.geometry import (
     angle_between,
-    arc_poses,
     in_footprint,
     moves_close_in,
+    swept_arc_poses,
     turn_closes_in,
-    turn_steps,
     wrap_angle,
 )
 
@@ -513,7 +512,7 @@ class Docker:
 
     def _sweeps_all(self, w: float, turn_rad: float) -> bool:
         """True if turning on the spot the way of ``w`` by the whole of ``turn_rad`` (at
-        ``turn_steps`` poses) brings an obstacle point within ``margin_m`` of the
+        ``turn_closes_in``'s poses) brings an obstacle point within ``margin_m`` of the
         footprint, or one already that near nearer still: the long way round is taken only
         when all of it is clear, not its first ``SWEEP_RAD`` (on a long turn the corners
         sweep nearly their whole circles)."""
@@ -521,10 +520,8 @@ class Docker:
         if local is None:
             return False
         fp = self.footprint
-        steps = turn_steps(turn_rad, fp.front, fp.rear, fp.width)
-        angles = np.linspace(turn_rad / steps, turn_rad, steps)
-        poses = [(0.0, 0.0, math.copysign(float(a), w)) for a in angles]
-        return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
+        angle = math.copysign(turn_rad, w)
+        return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
 
     def _arc_sweeps(self, v: float, w: float, dist: float, turn_rad: float) -> bool:
         """True if driving ``dist`` along the arc of (``v``, ``w``), turning at most
@@ -536,8 +533,8 @@ class Docker:
         if local is None or abs(v) < 1e-6:
             return False
         fp = self.footprint
-        steps = turn_steps(min(abs(dist * w / v), turn_rad), fp.front, fp.rear, fp.width)
-        poses = arc_poses(math.copysign(dist, v), w / v, steps=steps, max_turn_rad=turn_rad)
+        length = math.copysign(dist, v)
+        poses = swept_arc_poses(length, w / v, turn_rad, fp.front, fp.rear, fp.width)
         return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
 
     def _local_points(self) -> np.ndarray | None:

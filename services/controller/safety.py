@@ -34,13 +34,7 @@ import math
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
-from shared.geometry import (
-    arc_poses,
-    footprint_gap,
-    moves_close_in,
-    turn_closes_in,
-    turn_steps,
-)
+from shared.geometry import footprint_gap, moves_close_in, swept_arc_poses, turn_closes_in
 
 GUARD_SLACK_M = 0.05  # guard_points keeps this much beyond the farthest a check reaches
 
@@ -108,10 +102,8 @@ def arc_sweep_hit(
         return False
     fp = robot.footprint
     pts = points[np.abs(points[:, 2]) < band_m][:, :2].astype(float)
-    turn = min(abs(length_m * w / v), max_turn_rad)
-    steps = turn_steps(turn, fp.front, fp.rear, fp.width)
     length = length_m if v > 0 else -length_m
-    poses = arc_poses(length, w / v, steps=steps, max_turn_rad=max_turn_rad)
+    poses = swept_arc_poses(length, w / v, max_turn_rad, fp.front, fp.rear, fp.width)
     return moves_close_in(pts, fp.front, fp.rear, fp.width, margin_m, poses)
 
 
@@ -171,9 +163,10 @@ def near_surface(points: np.ndarray, bin_rad: float, gap_m: float) -> np.ndarray
     gap[1:] = (r[1:] - r[:-1] > gap_m) & ~first[1:]
     # a point is in its bin's nearest cluster until the bin's first gap
     starts = np.flatnonzero(first)
+    bin_index = np.cumsum(first) - 1
     gaps_before = np.cumsum(gap)
-    near = gaps_before == gaps_before[starts][np.cumsum(first) - 1]
-    bin_of = (np.cumsum(first) - 1)[near]
+    near = gaps_before == gaps_before[starts][bin_index]
+    bin_of = bin_index[near]
     counts = np.bincount(bin_of, minlength=len(starts))
     chosen = points[order[near]]
     out = np.empty((len(starts), points.shape[1]), dtype=np.float64)
