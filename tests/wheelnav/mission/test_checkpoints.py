@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from shared.messages import Checkpoint, Pose2D
-from wheelnav.mission.checkpoints import CheckpointLog
+from shared.site import Door
+from wheelnav.mission.checkpoints import CheckpointLog, door_shifts
 
 DOOR = Checkpoint(
     "door",
@@ -63,3 +64,26 @@ def test_the_localisation_error_is_taken_at_the_door_crossing_whatever_arrives_f
     # issue 15: the localisation error at every door checkpoint, on the ground truth
     assert crossed(True)["loc_error_m"] == crossed(False)["loc_error_m"] == 0.03
     assert crossed(True)["result"] == "passed"
+
+
+def test_the_lateral_offset_is_from_the_true_door_where_the_world_moved_it() -> None:
+    # world-differs campaign b7406w.m01: d2_007 stands 10 cm along its wall from where the
+    # map draws it; the chair crossed 2.7 cm from the true door's middle and the report
+    # gave -0.074 m, its offset from the map's door
+    shifts = door_shifts(
+        [Door("d1", "1", (2.0, 0.5), (2.0, -0.5))],
+        [
+            Door("d1", "1", (2.0, 0.6), (2.0, -0.4)),
+            Door("d9", "1", (9.0, 0.0), (9.0, 1.0)),
+        ],
+    )
+    assert shifts == {"d1": (0.0, 0.1)}
+    for log, offset in ((CheckpointLog(), 0.08), (CheckpointLog(door_shifts=shifts), -0.02)):
+        log.on_route([DOOR])
+        log.on_truth(1.0, 1.0, 0.08, 0.0, 0.0, "1")
+        log.on_status(1.0, "Door d1 (2/3)", "pass")
+        log.on_truth(4.98, 1.99, 0.08, 0.0, 0.2, "1")
+        log.on_truth(5.0, 2.01, 0.08, 0.0, 0.2, "1")
+        log.on_status(5.1, "Leg 1 (3/3)", "follow")
+        (row,) = log.rows(6.0)
+        assert row["lateral_offset_m"] == offset
