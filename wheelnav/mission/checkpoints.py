@@ -17,6 +17,7 @@ from typing import Any
 
 from shared.geometry import angle_between
 from shared.messages import Checkpoint, Phase
+from shared.site import Door
 
 NEAR_M = 0.3  # "at the approach pose": within this distance of it
 LOC_KEPT = 500  # estimate errors kept by stamp (10 s at 50 Hz) for doors crossed
@@ -46,6 +47,22 @@ class _Track:
 Pose = tuple[float, float, float]
 
 
+def door_shifts(mapped: list[Door], world: list[Door]) -> dict[str, tuple[float, float]]:
+    """How far each door of ``mapped`` stands in ``world`` from where the map has it (its
+    middle's move; doors the world has as mapped, or lacks, are left out)."""
+    true = {d.id: d for d in world}
+    shifts = {}
+    for d in mapped:
+        w = true.get(d.id)
+        if w is None:
+            continue
+        sx = round((w.p1[0] + w.p2[0] - d.p1[0] - d.p2[0]) / 2, 6)
+        sy = round((w.p1[1] + w.p2[1] - d.p1[1] - d.p2[1]) / 2, 6)
+        if sx or sy:
+            shifts[d.id] = (sx, sy)
+    return shifts
+
+
 class PoseHistory:
     """The last ``size`` true poses by the stamp of their tick.
 
@@ -71,8 +88,13 @@ class PoseHistory:
 
 @dataclass
 class CheckpointLog:
-    """Follows the chair through the current route's checkpoints, in order."""
+    """Follows the chair through the current route's checkpoints, in order.
 
+    ``door_shifts`` (door id -> metres, map frame) moves a door from where the stack's map
+    puts it to where the simulated world has it: the lateral offset is the chair's from
+    the true door."""
+
+    door_shifts: dict[str, tuple[float, float]] = field(default_factory=dict)
     done: list[dict[str, Any]] = field(default_factory=list)
     _queue: list[_Track] = field(default_factory=list)
     _truth: PoseHistory = field(default_factory=PoseHistory)
@@ -194,11 +216,13 @@ class CheckpointLog:
 
     def _door(self, t: _Track, stamp: float, x: float, y: float) -> None:
         c = t.cp.centre or t.cp.approach
+        sx, sy = self.door_shifts.get(t.cp.id, (0.0, 0.0))
+        cx, cy = c.x + sx, c.y + sy
         n = (math.cos(t.cp.approach.theta), math.sin(t.cp.approach.theta))
-        side = (x - c.x) * n[0] + (y - c.y) * n[1]
+        side = (x - cx) * n[0] + (y - cy) * n[1]
         if t._side is not None and t._side < 0 <= side:
             t.crossed_s = stamp
-            t.lateral_offset_m = -(x - c.x) * n[1] + (y - c.y) * n[0]
+            t.lateral_offset_m = -(x - cx) * n[1] + (y - cy) * n[0]
             t.loc_error_m = self._loc.get(round(stamp, 6))  # else when its estimate comes
             t.passed_s = stamp
             return

@@ -42,12 +42,14 @@ from shared.messages import (
     RouteReply,
     SimStatus,
 )
+from shared.site import load_site
 from shared.topics import Keys
 from shared.transport import Bus, open_session
 from sim.hardware_path import check_hardware_path
 from wheelnav.launcher.fleet import services_for, viz_recorder
 from wheelnav.launcher.router import RouterProcess
 from wheelnav.launcher.supervisor import Supervisor, wait_ready
+from wheelnav.mission.checkpoints import door_shifts
 from wheelnav.mission.report import Recorder
 from wheelnav.mission.scenario import Scenario
 
@@ -97,6 +99,11 @@ class MissionRun:
         self.keys = Keys(scenario.config.robot.name)
         self.goal_id = f"{scenario.name}-{int(time.time())}"
         self.recorder = Recorder(self.goal_id)
+        world = scenario.config.sim.world_site
+        if world:  # the report's door figures are the true doors'
+            self.recorder.checkpoints.door_shifts = door_shifts(
+                load_site(scenario.config.site).doors, load_site(world).doors
+            )
         self.done = threading.Event()
         self.port = free_port()
         self.fleet_output = fleet_output
