@@ -328,6 +328,9 @@ def test_sizes_across_seeds(built) -> None:
     assert all(1.6 - 1e-6 <= g <= 3.0 + 1e-6 for b, _ in built for g in b.geometry["series_gaps_m"])
     assert any(b.geometry["doors_in_series"] > 0 for b, _ in built)
     assert any(min(s) >= 20.0 for b, _ in built for s in b.geometry["hall_sides_m"])
+    # issue 15 asks for corridors of 40 m or more: the campaign's geometry says how long
+    lengths = [n for b, _ in built for n in b.geometry["corridor_lengths_m"]]
+    assert len(lengths) >= len(widths) and max(lengths) >= 40.0 and min(lengths) >= 1.2
     assert any(b.geometry["floors"] == 1 for b, _ in built)
     assert any(b.geometry["floors"] == 3 for b, _ in built)
     headings = {h for b, _ in built for h in b.geometry["lift_headings_deg"]}
