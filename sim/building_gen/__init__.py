@@ -138,7 +138,8 @@ def _recorded(opts: GenOptions) -> dict:
 
 
 def measure(plan: BuildingPlan) -> dict:
-    """Sizes for the campaign's histograms: doors, corridors, rooms, halls, lifts."""
+    """Sizes for the campaign's histograms: doors, corridors (width; the spine's and the
+    branches' length), rooms, halls, lifts."""
 
     def area(r: tuple[float, float, float, float]) -> float:
         return round((r[2] - r[0]) * (r[3] - r[1]), 2)
@@ -149,6 +150,11 @@ def measure(plan: BuildingPlan) -> dict:
         "floors": len(plan.floors),
         "door_widths_m": [round(d.width, 3) for f in plan.floors for d in f.doors],
         "corridor_widths_m": [w for f in plan.floors for w in f.corridor_widths],
+        "corridor_lengths_m": [
+            round(max(s.carve[2] - s.carve[0], s.carve[3] - s.carve[1]), 2)
+            for s in spaces
+            if s.kind in ("spine", "branch") and s.carve
+        ],
         "room_sizes_m2": [area(s.carve) for s in spaces if s.kind in ("room", "inner") and s.carve],
         "doors_in_series": sum(len(f.series) for f in plan.floors),
         "series_gaps_m": [gap for f in plan.floors for _, _, gap in f.series],

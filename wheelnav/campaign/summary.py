@@ -174,6 +174,7 @@ def format_failures(rows: list[dict[str, Any]]) -> str:
 HISTOGRAMS = {  # geometry key -> (title, bin edges)
     "door_widths_m": ("door width m", [0.8, 0.9, 1.0, 1.1, 1.21]),
     "corridor_widths_m": ("corridor width m", [1.2, 1.5, 2.0, 2.5, 3.01]),
+    "corridor_lengths_m": ("corridor length m", [0, 10, 20, 30, 40, 1e9]),
     "room_sizes_m2": ("room area m2", [0, 8, 15, 30, 60, 1e9]),
     "hall_sizes_m2": ("hall area m2", [0, 200, 400, 600, 1e9]),
 }
