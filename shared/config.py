@@ -731,6 +731,11 @@ class LauncherConfig:
     # start on a fresh install compiles the numba kernels (24 s on an idle 2-core machine,
     # over 60 s beside a loaded CI run; `wheelnav warm` does it ahead)
     ready_timeout_s: float = field(default=120.0, metadata=check(_positive))
+    # a mission run (`wheelnav mission`, the campaign, the benches) with the services as
+    # threads of the runner on one Zenoh session instead of processes around a router
+    # (wheelnav/launcher/in_process.py): the same messages and lockstep, so the same
+    # report, with less time spent on messaging; no restarts. `wheelnav up` never does
+    in_process: bool = False
 
 
 # ---- the real chair's drivers (the hardware profile) ----------------------------------

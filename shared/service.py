@@ -20,6 +20,12 @@ A service the launcher started stops by itself when the launcher is gone (killed
 SIGKILL, it cannot stop its children): the launcher puts its pid in
 ``WHEELNAV_PARENT_PID`` and :func:`watch_parent` stops the service once that process is
 no longer its parent. Started by hand or by docker compose, nothing is watched.
+
+A service can also run as a thread of another process (wheelnav/launcher/in_process.py):
+the thread that calls its ``main`` first names a :class:`Hosting` with :func:`host_here`.
+The service then joins the host's Zenoh session instead of opening its own, leaves
+signals, the parent watch and the logging set-up to the host, and registers itself so
+that the host can stop it.
 """
 
 from __future__ import annotations
@@ -32,13 +38,14 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 from shared import config as config_mod
 from shared.config import ConfigError, FleetConfig
 from shared.lockstep import Participant
 from shared.messages import Ack, Clock, Diagnostics, KeyCounters
 from shared.topics import Keys
-from shared.transport import Bus, open_session
+from shared.transport import Bus, Session, open_session
 
 EXIT_CONFIG = 2
 EXIT_STEP_FAILED = 3  # a wall-clock step raised: the launcher restarts the service
@@ -134,8 +141,50 @@ def config_from_args(args: argparse.Namespace) -> FleetConfig:
     return cfg
 
 
+@dataclass
+class Hosting:
+    """Services run as threads of one process, on its one Zenoh ``session``."""
+
+    session: Session
+    services: dict[str, Service] = field(default_factory=dict)
+    stopping: bool = False
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def register(self, svc: Service) -> None:
+        """Keep ``svc`` to stop it; one that starts after :meth:`stop_all` stops at once."""
+        with self.lock:
+            self.services[svc.name] = svc
+            if self.stopping:
+                svc.stop_event.set()
+
+    def stop_all(self) -> None:
+        """Ask every service to stop (as SIGTERM does to a process), also one still starting."""
+        with self.lock:
+            self.stopping = True
+            for svc in self.services.values():
+                svc.stop_event.set()
+
+
+_hosting = threading.local()
+
+
+def host_here(hosting: Hosting | None) -> None:
+    """Services started from this thread from now on run in ``hosting`` (None: on their own)."""
+    _hosting.value = hosting
+
+
+def hosting_here() -> Hosting | None:
+    """The hosting this thread's services run in (None: a process of their own)."""
+    return getattr(_hosting, "value", None)
+
+
 def setup_logging(name: str, level: str = "INFO") -> logging.Logger:
-    """One-line log records; the launcher adds the service prefix when it gathers outputs."""
+    """One-line log records; the launcher adds the service prefix when it gathers outputs.
+    A hosted service leaves the process's logging to its host and sets only its level."""
+    if hosting_here() is not None:
+        logger = logging.getLogger(f"wheelnav.{name}")
+        logger.setLevel(level)
+        return logger
     logging.basicConfig(
         level=level, format="%(levelname).1s %(name)s: %(message)s", stream=sys.stderr, force=True
     )
@@ -158,6 +207,7 @@ class Service:
             extra_arguments(parser)
         self.args = parser.parse_args(argv)
         self.name = name
+        self.hosting = hosting_here()
         self.log = setup_logging(name, self.args.log_level)
         try:
             self.cfg = config_from_args(self.args)
@@ -175,24 +225,31 @@ class Service:
         self._diag_thread: threading.Thread | None = None
 
     def __enter__(self) -> Service:
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            signal.signal(sig, lambda *_: self.stop_event.set())
-        watch_parent(self._launcher_gone)
-        try:
-            session = open_session(self.cfg.transport, identity=self.name)
-        except ConfigError as exc:  # missing credentials: a restart cannot fix them
-            print(f"wheelnav-{self.name}: config error: {exc}", file=sys.stderr)
-            raise SystemExit(EXIT_CONFIG) from None
-        except RuntimeError as exc:
-            self.log.error("%s", exc)
-            raise SystemExit(1) from None
-        self.bus = Bus(session, self.name)
+        if self.hosting is not None:
+            self.bus = Bus(self.hosting.session, self.name, owns_session=False)
+            self.hosting.register(self)
+        else:
+            self.bus = Bus(self._open_session(), self.name)
         self._diag_key = self.keys.key("diagnostics", service=self.name)
         self._diag_thread = threading.Thread(
             target=self._diagnostics_loop, name=f"{self.name}-diagnostics", daemon=True
         )
         self._diag_thread.start()
         return self
+
+    def _open_session(self) -> Session:
+        """A process's own session, with its signals and the launcher watched."""
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(sig, lambda *_: self.stop_event.set())
+        watch_parent(self._launcher_gone)
+        try:
+            return open_session(self.cfg.transport, identity=self.name)
+        except ConfigError as exc:  # missing credentials: a restart cannot fix them
+            print(f"wheelnav-{self.name}: config error: {exc}", file=sys.stderr)
+            raise SystemExit(EXIT_CONFIG) from None
+        except RuntimeError as exc:
+            self.log.error("%s", exc)
+            raise SystemExit(1) from None
 
     def _launcher_gone(self, pid: int) -> None:
         self.log.warning("the launcher (pid %d) is gone: stopping", pid)

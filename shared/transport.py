@@ -41,6 +41,7 @@ from shared.config import ConfigError, TransportConfig
 from shared.credentials import read_settings, secure_endpoint
 from shared.messages import Msg
 
+Session = zenoh.Session  # for modules that pass a session on without importing zenoh
 T = TypeVar("T", bound=Msg)
 R = TypeVar("R", bound=Msg)
 log = logging.getLogger("wheelnav.transport")
@@ -99,12 +100,29 @@ def open_session(
         ) from None
 
 
-class Bus:
-    """Typed wheelnav endpoints over one Zenoh session, delivered in arrival order."""
+def open_local_session() -> zenoh.Session:
+    """A Zenoh session that neither listens nor connects: the in-process fleet's one
+    session, which every service's :class:`Bus` shares (wheelnav/launcher/in_process.py).
+    Zenoh routes within a session, so nothing leaves the process."""
+    conf = zenoh.Config()
+    conf.insert_json5("mode", json.dumps("peer"))
+    conf.insert_json5("listen/endpoints", "[]")
+    conf.insert_json5("connect/endpoints", "[]")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    return zenoh.open(conf)
 
-    def __init__(self, session: zenoh.Session, name: str) -> None:
+
+class Bus:
+    """Typed wheelnav endpoints over one Zenoh session, delivered in arrival order.
+
+    ``owns_session``: :meth:`close` closes the session too. A bus on a session others
+    share (the in-process fleet's) undeclares only its own endpoints.
+    """
+
+    def __init__(self, session: zenoh.Session, name: str, owns_session: bool = True) -> None:
         self.session = session
         self.name = name
+        self.owns_session = owns_session
         self.lock = threading.RLock()
         self.bad_messages: Counter[str] = Counter()  # per declared key (see counters)
         self.messages_in: Counter[str] = Counter()
@@ -379,9 +397,13 @@ class Bus:
         self._closing = True
         with self.lock:  # let a callback that is running finish first
             pass
+        if not self.owns_session:
+            for endpoint in [*self._keep, *self._publishers.values()]:
+                endpoint.undeclare()
         self._keep.clear()
         self._publishers.clear()
-        self.session.close()
+        if self.owns_session:
+            self.session.close()
         self._inbox.put(None)
         if threading.current_thread() is not self._dispatcher:
             self._dispatcher.join(timeout=2.0)

@@ -7,6 +7,7 @@ controller, navigator) and run on simulation time.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import os
 import re
@@ -136,11 +137,24 @@ class Capture:
         return "".join(self.lines)
 
 
-def run_demo(rrd: str | None = None) -> dict:
+def run_demo(rrd: str | None = None, overrides: tuple[str, ...] = ()) -> dict:
     out = Capture()
-    report = MissionRun(load_scenario(DEMO), out=out, fleet_output=out, rrd=rrd).run()
+    scenario = load_scenario(DEMO, list(overrides))
+    report = MissionRun(scenario, out=out, fleet_output=out, rrd=rrd).run()
     assert report["success"], (report, out.text()[-3000:])
     return report
+
+
+@functools.cache
+def demo_in_processes() -> dict:
+    """The demo with a process per service (run once for the tests of this file)."""
+    return run_demo()
+
+
+def wall_clock_free(report: dict) -> dict:
+    """The report without its wall-clock figures: the wall time and the services'
+    counters (sampled every second of wall time)."""
+    return {k: v for k, v in report.items() if k not in ("wall_time_s", "diagnostics")}
 
 
 def test_goal_inside_a_wall_fails_cleanly_with_the_planners_reason(tmp_path) -> None:
@@ -159,7 +173,7 @@ def test_goal_inside_a_wall_fails_cleanly_with_the_planners_reason(tmp_path) -> 
 
 
 def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None:
-    first = run_demo()
+    first = demo_in_processes()
     assert first["collisions"] == 0
     assert first["min_clearance_m"] > 0.05
     door = ["correct", "turn", "verify", "pass"]  # the seed's phases 0-3
@@ -179,13 +193,8 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
         if e["kind"] == "lockstep_timeout"
     ]
     assert not slips
-    # wall-clock figures: the wall time and the services' counters (sampled every second)
-    differ = {
-        key: (first[key], second[key])
-        for key in first
-        if key not in ("wall_time_s", "diagnostics") and first[key] != second.get(key)
-    }
-    assert differ == {}
+    once, again = wall_clock_free(first), wall_clock_free(second)
+    assert {k: (v, again.get(k)) for k, v in once.items() if v != again.get(k)} == {}
     for report in (first, second):  # every service counted, nothing bad, no restart
         diag = report["diagnostics"]
         assert set(diag) >= {s.name for s in services_for("sim")}, diag
@@ -207,6 +216,18 @@ def test_demo_mission_succeeds_in_lockstep_and_repeats_exactly(tmp_path) -> None
         "status/tree",
     ):
         assert entity in shown, entity
+
+
+def test_the_fleet_as_threads_of_one_process_gives_the_report_of_the_processes() -> None:
+    # launcher.in_process: the services as threads on one Zenoh session, no router; the
+    # same messages in the same lockstep, so the same report field for field
+    threads = run_demo(overrides=("launcher.in_process=true",))
+    assert threads["diagnostics"].keys() >= {s.name for s in services_for("sim")}
+    assert all(d["bad_messages"] == 0 for d in threads["diagnostics"].values())
+    processes, threads = wall_clock_free(demo_in_processes()), wall_clock_free(threads)
+    assert {k: (v, threads.get(k)) for k, v in processes.items() if v != threads.get(k)} == {}
+    # every service stopped with its mission: no thread of it is left in this process
+    assert not [t.name for t in threading.enumerate() if t.name.startswith("service-")]
 
 
 @pytest.fixture

@@ -44,9 +44,10 @@ from shared.messages import (
 )
 from shared.site import load_site
 from shared.topics import Keys
-from shared.transport import Bus, open_session
+from shared.transport import Bus, open_local_session, open_session
 from sim.hardware_path import check_hardware_path
 from wheelnav.launcher.fleet import services_for, viz_recorder
+from wheelnav.launcher.in_process import InProcessFleet
 from wheelnav.launcher.router import RouterProcess
 from wheelnav.launcher.supervisor import Supervisor, wait_ready
 from wheelnav.mission.checkpoints import door_shifts
@@ -108,7 +109,7 @@ class MissionRun:
         self.port = free_port()
         self.fleet_output = fleet_output
         self.rrd = rrd
-        self.supervisor: Supervisor | None = None
+        self.supervisor: Supervisor | InProcessFleet | None = None
         self._goal_sent = False
         self._last_progress = -PROGRESS_EVERY_S
         self._last_status: NavStatus | None = None
@@ -133,16 +134,25 @@ class MissionRun:
             if cfg.sim.hardware_path:
                 private_links(fleet_cfg, Path(tmp))
             cfg_path.write_text(yaml.safe_dump(fleet_cfg, sort_keys=False))
-            router = RouterProcess(endpoint)
-            router.start()
-            bus = Bus(open_session(TransportConfig(connect=[endpoint])), NAME)
+            in_process = cfg.launcher.in_process and profile == "sim"
+            router = None if in_process else RouterProcess(endpoint)
+            if router is None:
+                bus = Bus(open_local_session(), NAME)
+            else:
+                router.start()
+                bus = Bus(open_session(TransportConfig(connect=[endpoint])), NAME)
             self._wire(bus)
             bus.declare_alive(self.keys.key("alive", service=NAME))
             specs = services_for(profile) + ([viz_recorder(self.rrd)] if self.rrd else [])
             out = self.fleet_output or (_Null() if self.quiet else self.out)
-            self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
+            if in_process:
+                self.supervisor = InProcessFleet(specs, str(cfg_path), bus, out)
+                where = "as threads of this process (launcher.in_process)"
+            else:
+                self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
+                where = f"on {endpoint}"
             self._say(
-                f"scenario {self.scenario.name}: fleet starting on {endpoint}"
+                f"scenario {self.scenario.name}: fleet starting {where}"
                 + (
                     " (hardware path: the drivers behind emulated links)"
                     if profile != "sim"
@@ -174,8 +184,13 @@ class MissionRun:
                         self.recorder.reason = f"no result within {wall_limit:.0f} s of wall time"
             finally:
                 self.supervisor.stop()
-                bus.close()
-                router.stop()
+                if router is None:
+                    session = bus.session
+                    bus.close()
+                    session.close()
+                else:
+                    bus.close()
+                    router.stop()
         report = self.recorder.report(self.scenario.name, time.monotonic() - wall_start)
         return report
 
