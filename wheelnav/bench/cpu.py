@@ -9,19 +9,27 @@ scheduling. Elsewhere than Linux the readings are empty and the bench leaves the
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 
 PROC = Path("/proc")
 _TICK_S = 1.0 / os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 0.01
 
 
-def _stat(pid: int) -> tuple[int, float] | None:
-    """(parent pid, user + system CPU seconds) of ``pid``, None if it is gone."""
+def _fields(path: Path) -> list[str] | None:
+    """The fields of a process's or thread's ``stat`` after its name, None if it is gone."""
     try:
-        text = (PROC / str(pid) / "stat").read_text()
+        text = path.read_text()
     except OSError:
         return None
-    fields = text[text.rindex(")") + 2 :].split()  # the name may hold spaces and ")"
+    return text[text.rindex(")") + 2 :].split()  # the name may hold spaces and ")"
+
+
+def _stat(pid: int) -> tuple[int, float] | None:
+    """(parent pid, user + system CPU seconds) of ``pid``, None if it is gone."""
+    fields = _fields(PROC / str(pid) / "stat")
+    if fields is None:
+        return None
     return int(fields[1]), (int(fields[11]) + int(fields[12])) * _TICK_S
 
 
@@ -60,4 +68,35 @@ def cpu_seconds() -> dict[str, float]:
         if p == me:
             name = "runner" if pid == me else _name(pid)
             out[name] = out.get(name, 0.0) + seconds
+    return out
+
+
+def _service_of(thread_name: str) -> str:
+    """The service a thread works for, from the names the in-process fleet and the bus
+    give them ("service-sim", "sim-bus", "sim-diagnostics" -> sim); else the runner."""
+    if thread_name.startswith("service-"):
+        return thread_name.removeprefix("service-")
+    for suffix in ("-bus", "-diagnostics"):
+        if thread_name.endswith(suffix):
+            return thread_name.removesuffix(suffix)
+    return "runner"
+
+
+def thread_cpu_seconds() -> dict[str, float]:
+    """CPU seconds used so far by this process's threads, by the service each works for
+    (the in-process fleet: wheelnav/launcher/in_process.py); threads Python did not start
+    (Zenoh's runtime, numba's) are "zenoh and native threads". Empty where /proc is
+    missing."""
+    tasks = PROC / "self" / "task"
+    if not tasks.is_dir():
+        return {}
+    names = {t.native_id: t.name for t in threading.enumerate() if t.native_id is not None}
+    out: dict[str, float] = {}
+    for entry in tasks.iterdir():
+        fields = _fields(entry / "stat")
+        if fields is None:
+            continue
+        tid = int(entry.name)
+        name = _service_of(names[tid]) if tid in names else "zenoh and native threads"
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) * _TICK_S
     return out

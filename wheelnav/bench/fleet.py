@@ -6,6 +6,11 @@ wall time of the simulator's own step (chair, LiDAR), of its publishing, of each
 stage (from announcing the tick to the last answer) and of its pacing; per participant,
 the time its steps took. A stage's wait beyond its slowest participant's compute is
 messaging and scheduling. The limit is 10x real time (issue: fast lockstep).
+
+``--set launcher.in_process=true`` runs the fleet as threads of the bench's own process
+(wheelnav/launcher/in_process.py); the CPU table is then by the service each thread works
+for. ``--compare`` runs the scenario both ways, one after the other, and prints the two
+factors side by side.
 """
 
 from __future__ import annotations
@@ -13,12 +18,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
 from shared.messages import LockstepProfile
-from wheelnav.bench.cpu import cpu_seconds
+from shared.service import add_override_argument
+from wheelnav.bench.cpu import cpu_seconds, thread_cpu_seconds
 from wheelnav.mission.run import MissionRun
 from wheelnav.mission.scenario import load_scenario
 
@@ -40,7 +45,8 @@ class ProfiledRun(MissionRun):
 
     def _on_profile(self, msg: LockstepProfile) -> None:
         self.profile = msg
-        reading = (msg.ticks, cpu_seconds())
+        threads = self.scenario.config.launcher.in_process
+        reading = (msg.ticks, thread_cpu_seconds() if threads else cpu_seconds())
         if self.cpu_first is None:
             self.cpu_first = reading
         else:
@@ -110,28 +116,71 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("scenario", nargs="?", default=str(DEMO), help="scenario YAML (the demo)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+    parser.add_argument(
+        "--compare",
+        action="store_true",
+        help="run with a process per service, then in process, and print both factors",
+    )
+    add_override_argument(parser)
     args = parser.parse_args(argv)
-    scenario = load_scenario(args.scenario)
+    if not args.compare:
+        figures = bench(args.scenario, args.overrides)
+        if args.json:
+            print(json.dumps(figures, indent=2))
+        else:
+            print_figures(figures)
+        return 0 if figures.get("success") else 1
+    runs = {
+        mode: bench(args.scenario, [*args.overrides, f"launcher.in_process={flag}"])
+        for mode, flag in (("processes", "false"), ("in process", "true"))
+    }
+    if args.json:
+        print(json.dumps(runs, indent=2))
+    else:
+        for mode, figures in runs.items():
+            print(f"== {mode}")
+            print_figures(figures)
+            print()
+        a, b = (runs[m].get("realtime_factor", 0.0) for m in ("processes", "in process"))
+        ratio = f"{b / a:.2f}x the processes'" if a > 0 else "no ratio"
+        print(f"real-time factor: processes {a:.1f}, in process {b:.1f} ({ratio})")
+    return 0 if all(f.get("success") for f in runs.values()) else 1
+
+
+def bench(scenario_path: str, overrides: list[str]) -> dict[str, Any]:
+    """Run ``scenario_path`` with ``overrides``: its figures (``success`` False, with the
+    reason, if no lockstep profile was heard)."""
+    scenario = load_scenario(scenario_path, overrides)
     run = ProfiledRun(scenario, quiet=True)
     report = run.run()
     if run.profile is None:
-        print(f"no lockstep profile heard: {report['reason']}", file=sys.stderr)
-        return 1
+        return {"scenario": scenario.name, "success": False, "error": report["reason"]}
     figures = summarise(run.profile, scenario.config.sim.lockstep_stages)
-    cpu = cpu_rows(run.cpu_first, run.cpu_last, run.profile.dt, os.cpu_count() or 1)
+    in_process = scenario.config.launcher.in_process
+    cores = 1 if in_process else os.cpu_count() or 1
+    cpu = cpu_rows(run.cpu_first, run.cpu_last, run.profile.dt, cores)
     if cpu is not None:
         figures.update(cpu)
+    figures["dt"] = run.profile.dt
+    figures["in_process"] = in_process
     figures["scenario"] = scenario.name
     figures["success"] = report["success"]
-    if args.json:
-        print(json.dumps(figures, indent=2))
-        return 0 if report["success"] else 1
+    return figures
+
+
+def print_figures(figures: dict[str, Any]) -> None:
+    """The figures of one run as the bench prints them."""
+    if "error" in figures:
+        print(f"no lockstep profile heard: {figures['error']}")
+        return
     print(
-        f"{scenario.name}: {figures['sim_s']:.1f} s simulated in {figures['wall_s']:.1f} s of "
-        f"wall time (from the first tick): real-time factor {figures['realtime_factor']:.1f}"
-        f" (limit >= {TARGET:.0f}), mission {'succeeded' if report['success'] else 'FAILED'}"
+        f"{figures['scenario']}: {figures['sim_s']:.1f} s simulated in {figures['wall_s']:.1f} s"
+        f" of wall time (from the first tick): real-time factor"
+        f" {figures['realtime_factor']:.1f} (limit >= {TARGET:.0f}), mission"
+        f" {'succeeded' if figures['success'] else 'FAILED'}"
+        + (" (fleet in process)" if figures["in_process"] else "")
     )
-    tick = f"{figures['ticks']} ticks of {1e3 * run.profile.dt:.0f} ms"
+    tick = f"{figures['ticks']} ticks of {1e3 * figures['dt']:.0f} ms"
     print(f"where a tick's wall time goes ({tick}):")
     print(f"  {'part':58s} {'ms/tick':>8s} {'share':>6s}")
     total = figures["tick_ms"]
@@ -139,13 +188,20 @@ def main(argv: list[str] | None = None) -> int:
         share = f"{100 * value / total:5.1f}%" if total > 0 and not name.startswith("    ") else ""
         print(f"  {name:58s} {value:8.3f} {share:>6s}")
     print(f"  {'total':58s} {total:8.3f}")
-    if cpu is not None:
-        print("CPU a tick costs, by process (its threads and Zenoh's, from /proc):")
-        for name, value in cpu["cpu_ms"].items():
-            print(f"  {name:58s} {value:8.3f}")
-        print(f"  {'total':58s} {cpu['cpu_total_ms']:8.3f}")
+    if "cpu_ms" not in figures:
+        return
+    by = "the service each thread works for" if figures["in_process"] else "process"
+    print(f"CPU a tick costs, by {by} (its threads and Zenoh's, from /proc):")
+    for name, value in figures["cpu_ms"].items():
+        print(f"  {name:58s} {value:8.3f}")
+    print(f"  {'total':58s} {figures['cpu_total_ms']:8.3f}")
+    if figures["in_process"]:
         print(
-            f"on {cpu['cores']} cores that CPU allows at most {cpu['cpu_bound_factor']:.1f}x real"
-            " time, with every core busy all the time"
+            f"under one interpreter lock (one core for the Python work) that CPU allows about"
+            f" {figures['cpu_bound_factor']:.1f}x real time"
         )
-    return 0 if report["success"] else 1
+    else:
+        print(
+            f"on {figures['cores']} cores that CPU allows at most"
+            f" {figures['cpu_bound_factor']:.1f}x real time, with every core busy all the time"
+        )
