@@ -17,6 +17,7 @@ from __future__ import annotations
 import importlib
 import logging
 import threading
+from collections.abc import Callable
 from typing import TextIO
 
 from shared.service import EXIT_CONFIG, Hosting, host_here
@@ -57,11 +58,21 @@ class InProcessFleet:
 
     The same calls as :class:`~wheelnav.launcher.supervisor.Supervisor` where a mission
     run needs them: :meth:`start`, :meth:`failed`, :meth:`last_error`, :meth:`stop`.
+    Nothing restarts a service that ends before :meth:`stop`: ``on_stopped(name, why)`` is
+    called instead, so that the run can end at once with the reason.
     """
 
-    def __init__(self, specs: list[ServiceSpec], config_path: str, bus: Bus, out: TextIO) -> None:
+    def __init__(
+        self,
+        specs: list[ServiceSpec],
+        config_path: str,
+        bus: Bus,
+        out: TextIO,
+        on_stopped: Callable[[str, str], None] | None = None,
+    ) -> None:
         self.specs = specs
         self.config_path = config_path
+        self.on_stopped = on_stopped
         self.hosting = Hosting(bus.session)
         self.exit_codes: dict[str, int] = {}
         self._threads: list[threading.Thread] = []
@@ -94,6 +105,9 @@ class InProcessFleet:
             self._output.last_error.setdefault(spec.name, f"{type(exc).__name__}: {exc}")
             code = 1
         self.exit_codes[spec.name] = code
+        if not self.hosting.stopping and self.on_stopped is not None:
+            why = self.last_error(spec.name) or f"exit code {code}"
+            self.on_stopped(spec.name, why)
 
     def failed(self) -> list[str]:
         """Services that ended with an error before being asked to stop."""

@@ -146,7 +146,9 @@ class MissionRun:
             specs = services_for(profile) + ([viz_recorder(self.rrd)] if self.rrd else [])
             out = self.fleet_output or (_Null() if self.quiet else self.out)
             if in_process:
-                self.supervisor = InProcessFleet(specs, str(cfg_path), bus, out)
+                self.supervisor = InProcessFleet(
+                    specs, str(cfg_path), bus, out, on_stopped=self._service_stopped
+                )
                 where = "as threads of this process (launcher.in_process)"
             else:
                 self.supervisor = Supervisor(specs, endpoint, cfg.launcher, str(cfg_path), out=out)
@@ -193,6 +195,13 @@ class MissionRun:
                     router.stop()
         report = self.recorder.report(self.scenario.name, time.monotonic() - wall_start)
         return report
+
+    def _service_stopped(self, name: str, why: str) -> None:
+        """In process a service that ends is not restarted: the mission ends with why."""
+        if not self.done.is_set():
+            self.recorder.state = "failed"
+            self.recorder.reason = f"{name} stopped ({why}); in process nothing restarts it"
+            self.done.set()
 
     def _wire(self, bus: Bus) -> None:
         keys = self.keys
