@@ -8,8 +8,9 @@ message inside the one session. The lockstep protocol is the same, so a run give
 same report as with a process per service.
 
 What processes give and this does not: a service that dies is not restarted (a restart
-test needs processes), and one service's crash can take the others with it. ``wheelnav
-mission --in-process`` and the campaign use it; ``wheelnav up`` never does.
+test needs processes), and one service's crash can take the others with it. A mission
+run uses it with ``launcher.in_process: true`` (``wheelnav mission ... --set
+launcher.in_process=true``, the campaign's ``--set`` too); ``wheelnav up`` never does.
 """
 
 from __future__ import annotations
