@@ -23,6 +23,7 @@ import functools
 import math
 import types
 import typing
+from collections.abc import Callable
 from typing import Any, TypeVar
 
 import msgpack
@@ -57,11 +58,22 @@ def _pack_ext(obj: Any) -> msgpack.ExtType:
     raise TypeError(f"cannot encode {type(obj).__name__}")
 
 
-def _to_wire(msg: Msg) -> dict[str, Any]:
-    return {f.name: _field_to_wire(getattr(msg, f.name)) for f in dataclasses.fields(msg)}
+@functools.cache
+def _field_names(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls))
+
+
+def _to_wire(msg: Any) -> dict[str, Any]:
+    cls = msg if isinstance(msg, type) else type(msg)
+    return {name: _field_to_wire(getattr(msg, name)) for name in _field_names(cls)}
+
+
+_PLAIN = frozenset({float, int, str, bool, type(None), np.ndarray})  # sent as they are
 
 
 def _field_to_wire(value: Any) -> Any:
+    if type(value) in _PLAIN:
+        return value
     if dataclasses.is_dataclass(value):
         return _to_wire(value)
     if isinstance(value, list):
@@ -175,104 +187,180 @@ def to_plain(msg: Msg) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------------------
-# Schema checks (shared by encode and decode)
+# Schema checks (shared by encode and decode), compiled once per message type
 # --------------------------------------------------------------------------------------
+
+Check = Callable[[Any, str], Any]
+"""One field's check: the value as the message holds it, or DecodeError naming ``path``."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _Plan:
+    """A message type's fields as the codec checks them."""
+
+    names: frozenset[str]
+    fields: tuple[tuple[str, Check, bool], ...]  # name, check, whether it has a default
 
 
 @functools.cache
-def _hints(cls: type) -> dict[str, Any]:
-    return typing.get_type_hints(cls)
+def _plan(cls: type) -> _Plan:
+    """The checks of ``cls``'s fields, built once from its type hints and field metadata:
+    reading hints and metadata for every message cost more than the checks themselves
+    (``wheelnav bench codec``)."""
+    hints = typing.get_type_hints(cls)
+    fields = dataclasses.fields(cls)
+    return _Plan(
+        frozenset(f.name for f in fields),
+        tuple(
+            (
+                f.name,
+                _check_for(hints[f.name], f.metadata),
+                f.default is not dataclasses.MISSING
+                or f.default_factory is not dataclasses.MISSING,
+            )
+            for f in fields
+        ),
+    )
 
 
 def _check_fields(cls: type, data: dict[str, Any], path: str) -> dict[str, Any]:
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - fields.keys())
-    if unknown:
+    plan = _plan(cls)
+    if not plan.names.issuperset(data):
+        unknown = sorted(set(data) - plan.names)
         raise DecodeError(f"{path}: unknown field {unknown[0]!r}")
     values = {}
-    hints = _hints(cls)
-    for name, f in fields.items():
-        if name not in data:
-            has_default = (
-                f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING
-            )
-            if has_default:
-                continue
+    for name, check, has_default in plan.fields:
+        if name in data:
+            values[name] = check(data[name], f"{path}.{name}")
+        elif not has_default:
             raise DecodeError(f"{path}.{name}: missing")
-        values[name] = _check_value(hints[name], data[name], f"{path}.{name}", f.metadata)
     return values
 
 
-def _check_value(hint: Any, value: Any, path: str, meta: Any) -> Any:
+def _check_for(hint: Any, meta: Any) -> Check:
+    """The check of a field with type ``hint`` and metadata ``meta`` (ranges, dtype...)."""
     origin = typing.get_origin(hint)
     if origin in (typing.Union, types.UnionType):
         options = typing.get_args(hint)
-        if value is None and type(None) in options:
-            return None
-        inner = [o for o in options if o is not type(None)]
-        return _check_value(inner[0], value, path, meta)
+        inner = _check_for([o for o in options if o is not type(None)][0], meta)
+        if type(None) not in options:
+            return inner
+        return lambda value, path: None if value is None else inner(value, path)
     if hint is float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
+        return _number_check(*meta.get("range", (-DEFAULT_LIMIT, DEFAULT_LIMIT)))
+    if hint is bool:
+        return _check_bool
+    if hint is int:
+        return _int_check(*meta.get("range", (-INT_LIMIT, INT_LIMIT)))
+    if hint is str:
+        return _check_str
+    if origin is list:
+        (item,) = typing.get_args(hint)
+        return _list_check(_check_for(item, meta))
+    if hint is np.ndarray:
+        return _array_check(meta.get("dtype"), meta.get("shape"), meta.get("limit"))
+    if dataclasses.is_dataclass(hint):
+        return _nested_check(hint)
+
+    def unsupported(value: Any, path: str) -> Any:
+        raise DecodeError(f"{path}: unsupported field type {hint!r}")
+
+    return unsupported
+
+
+def _outside(value: float | int, path: str, lo: float, hi: float) -> DecodeError:
+    return DecodeError(f"{path}: {value!r} is outside [{lo:g}, {hi:g}]")
+
+
+def _number_check(lo: float, hi: float) -> Check:
+    def number(value: Any, path: str) -> float:
+        if type(value) is float and lo <= value <= hi:
+            return value  # the common case; NaN and infinities fail the comparison
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise DecodeError(f"{path}: expected a number, got {type(value).__name__}")
         if not math.isfinite(value):
             raise DecodeError(f"{path}: not finite ({value})")
-        return _in_range(float(value), path, meta, DEFAULT_LIMIT)
-    if hint is bool:
-        if not isinstance(value, bool):
-            raise DecodeError(f"{path}: expected true/false, got {type(value).__name__}")
+        value = float(value)
+        if not lo <= value <= hi:
+            raise _outside(value, path, lo, hi)
         return value
-    if hint is int:
+
+    return number
+
+
+def _int_check(lo: int, hi: int) -> Check:
+    def integer(value: Any, path: str) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise DecodeError(f"{path}: expected an integer, got {type(value).__name__}")
-        return _in_range(value, path, meta, INT_LIMIT)
-    if hint is str:
-        if not isinstance(value, str):
-            raise DecodeError(f"{path}: expected text, got {type(value).__name__}")
-        if len(value) > MAX_TEXT:
-            raise DecodeError(f"{path}: text of {len(value)} characters (at most {MAX_TEXT})")
+        if not lo <= value <= hi:
+            raise _outside(value, path, lo, hi)
         return value
-    if origin is list:
+
+    return integer
+
+
+def _check_bool(value: Any, path: str) -> bool:
+    if not isinstance(value, bool):
+        raise DecodeError(f"{path}: expected true/false, got {type(value).__name__}")
+    return value
+
+
+def _check_str(value: Any, path: str) -> str:
+    if not isinstance(value, str):
+        raise DecodeError(f"{path}: expected text, got {type(value).__name__}")
+    if len(value) > MAX_TEXT:
+        raise DecodeError(f"{path}: text of {len(value)} characters (at most {MAX_TEXT})")
+    return value
+
+
+def _list_check(item: Check) -> Check:
+    def items(value: Any, path: str) -> list[Any]:
         if not isinstance(value, list):
             raise DecodeError(f"{path}: expected a list, got {type(value).__name__}")
-        (item,) = typing.get_args(hint)
-        return [_check_value(item, v, f"{path}[{i}]", meta) for i, v in enumerate(value)]
-    if hint is np.ndarray:
-        return _check_array(value, path, meta)
-    if dataclasses.is_dataclass(hint):
+        return [item(v, f"{path}[{i}]") for i, v in enumerate(value)]
+
+    return items
+
+
+def _nested_check(cls: type) -> Check:
+    def nested(value: Any, path: str) -> Any:
         if not isinstance(value, dict):
-            raise DecodeError(f"{path}: expected a {hint.TAG} map, got {type(value).__name__}")
-        return _build(hint, value, path)
-    raise DecodeError(f"{path}: unsupported field type {hint!r}")
+            raise DecodeError(f"{path}: expected a {cls.TAG} map, got {type(value).__name__}")
+        return _build(cls, value, path)
+
+    return nested
 
 
-def _in_range(value: float | int, path: str, meta: Any, limit: float) -> float | int:
-    lo, hi = meta.get("range", (-limit, limit))
-    if not lo <= value <= hi:
-        raise DecodeError(f"{path}: {value!r} is outside [{lo:g}, {hi:g}]")
-    return value
+def _array_check(dtype: np.dtype | None, shape: tuple | None, limit: float | None) -> Check:
+    limit = limit or DEFAULT_LIMIT
 
+    def array(value: Any, path: str) -> np.ndarray:
+        if not isinstance(value, np.ndarray):
+            raise DecodeError(f"{path}: expected an array, got {type(value).__name__}")
+        if dtype is not None and value.dtype != dtype:
+            raise DecodeError(f"{path}: expected dtype {dtype}, got {value.dtype}")
+        if shape is not None:
+            ok = len(shape) == value.ndim and all(
+                want is None or want == got for want, got in zip(shape, value.shape, strict=True)
+            )
+            if not ok:
+                raise DecodeError(f"{path}: expected shape {shape}, got {value.shape}")
+        kind = value.dtype.kind
+        if kind in "fiu" and value.size:
+            # floats: two reductions and no temporary array (NaN fails them as well);
+            # integers through abs as before (the smallest int64 has no positive twin)
+            if kind == "f":
+                fine = value.min() >= -limit and value.max() <= limit
+            else:
+                fine = (np.abs(value) <= limit).all()
+            if not fine:
+                if kind == "f" and not np.isfinite(value).all():
+                    raise DecodeError(f"{path}: contains non-finite values")
+                worst = value.flat[int(np.argmax(np.abs(value)))].item()
+                raise DecodeError(f"{path}: value {worst!r} is outside [{-limit:g}, {limit:g}]")
+        return value
 
-def _check_array(value: Any, path: str, meta: Any) -> np.ndarray:
-    if not isinstance(value, np.ndarray):
-        raise DecodeError(f"{path}: expected an array, got {type(value).__name__}")
-    dtype, shape = meta.get("dtype"), meta.get("shape")
-    if dtype is not None and value.dtype != dtype:
-        raise DecodeError(f"{path}: expected dtype {dtype}, got {value.dtype}")
-    if shape is not None:
-        ok = len(shape) == value.ndim and all(
-            want is None or want == got for want, got in zip(shape, value.shape, strict=True)
-        )
-        if not ok:
-            raise DecodeError(f"{path}: expected shape {shape}, got {value.shape}")
-    if value.dtype.kind in "fiu" and value.size:
-        limit = meta.get("limit") or DEFAULT_LIMIT
-        # one pass in the common case: NaN fails the comparison as well
-        if not (np.abs(value) <= limit).all():
-            if value.dtype.kind == "f" and not np.isfinite(value).all():
-                raise DecodeError(f"{path}: contains non-finite values")
-            worst = value.flat[int(np.argmax(np.abs(value)))].item()
-            raise DecodeError(f"{path}: value {worst!r} is outside [{-limit:g}, {limit:g}]")
-    return value
+    return array
 
 
 def _validate(msg: Msg, path: str) -> None:

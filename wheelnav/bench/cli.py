@@ -12,6 +12,7 @@ BENCHES = {
     "sim": ("wheelnav.bench.sim", "real-time factor with the 3D LiDAR, ray casting per scan"),
     "fleet": ("wheelnav.bench.fleet", "the whole fleet's real-time factor in lockstep, per tick"),
     "doors": ("wheelnav.bench.doors", "the narrow-door campaign: one door, random starts"),
+    "codec": ("wheelnav.bench.codec", "encode and decode per message type vs msgpack alone"),
 }
 
 
