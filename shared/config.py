@@ -323,6 +323,11 @@ class LocalisationConfig:
     drift_per_m: float = field(default=0.1, metadata=check(_non_negative))
     drift_rad_per_m: float = field(default=0.02, metadata=check(_non_negative))
     drift_rad_per_rad: float = field(default=0.05, metadata=check(_non_negative))
+    # tracking (the last scan matched), a scan point first counts in the match within
+    # track_gate_m plus that drift of a wall instead of match_cutoff_m, so a wall the
+    # world has a little off the map does not pull the pose onto itself; 0 = off (the
+    # default until the campaigns have been run with it)
+    track_gate_m: float = field(default=0.0, metadata=check(_non_negative))
     # lost, the pose is searched for on every relocalise_every_scans-th scan, widening to
     # the whole floor, each search at most relocalise_budget evaluations (about 2 s on the
     # development machine); after relocalise_attempts failures it stays lost and says why

@@ -106,6 +106,7 @@ class MapModeSettings:
     drift_per_m: float = 0.1
     drift_rad_per_m: float = 0.02
     drift_rad_per_rad: float = 0.05
+    track_gate_m: float = 0.0  # 0: off (see MapLocaliser._cutoff)
     relocalise: bool = True
     relocalise_every_scans: int = 10
     relocalise_attempts: int = 5
@@ -131,6 +132,7 @@ class MapModeSettings:
             drift_per_m=lc.drift_per_m,
             drift_rad_per_m=lc.drift_rad_per_m,
             drift_rad_per_rad=lc.drift_rad_per_rad,
+            track_gate_m=lc.track_gate_m,
             relocalise=lc.relocalise,
             relocalise_every_scans=lc.relocalise_every_scans,
             relocalise_attempts=lc.relocalise_attempts,
@@ -241,7 +243,7 @@ class MapLocaliser:
             if self._accept(found):
                 return True
         m = match_scan(
-            self.field, points, self.pose, cutoff_m=s.cutoff_m, prior_weight=s.prior_weight
+            self.field, points, self.pose, cutoff_m=self._cutoff(), prior_weight=s.prior_weight
         )
         x, y, th = self.pose
         jump = math.hypot(m.x - x, m.y - y)
@@ -288,6 +290,20 @@ class MapLocaliser:
         self.last_match = m
         self.odometry.correct(m.x, m.y, m.theta)
         return True
+
+    def _cutoff(self) -> float:
+        """How far from a wall a scan point first counts in the match.
+
+        While the pose is tracked (the last scan matched) it can be off by little more
+        than what odometry drifts between two scans, so with ``track_gate_m`` set the
+        match starts from that gate plus the drift instead of ``cutoff_m``: a wall the
+        world has 15 cm from where the map draws it (b7406w.m04: a corridor's end wall,
+        the one thing fixing the pose along it) then stays out of the match instead of
+        pulling the pose, scan after scan, onto itself."""
+        s = self.settings
+        if s.track_gate_m > 0.0 and self.last_match is not None and self.misses == 0:
+            return min(s.cutoff_m, s.track_gate_m + self.drift()[0])
+        return s.cutoff_m
 
     def _while_lost(self, points: np.ndarray) -> bool:
         """Lost (and the scan did not match where the pose is): search for the pose every
