@@ -97,6 +97,12 @@ def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
                     )
                 )
     rows.append(("simulator pacing", p.pacing_s * ms))
+    # the floor of a tick in series: the simulator's step, then each stage's slowest
+    # participant (a stage's participants step side by side), with no messaging at all
+    serial_s = p.physics_s + sum(
+        max((compute[name] for name in names if name in compute), default=0.0)
+        for names in (stages[k] if k < len(stages) else [] for k in range(len(p.stage_wait_s)))
+    )
     accounted = p.physics_s + p.publish_s + sum(p.stage_wait_s) + p.pacing_s
     rows.append(("other (loop, locks)", max(0.0, p.wall_s - accounted) * ms))
     sim_s = p.ticks * p.dt
@@ -107,6 +113,8 @@ def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
         "realtime_factor": round(sim_s / p.wall_s, 2) if p.wall_s > 0 else 0.0,
         "tick_ms": round(p.wall_s * ms, 3),
         "rows": [(name, round(value, 3)) for name, value in rows],
+        "serial_compute_ms": round(serial_s * ms, 3),
+        "compute_bound_factor": round(sim_s / serial_s, 2) if serial_s > 0 else 0.0,
     }
 
 
@@ -188,6 +196,11 @@ def print_figures(figures: dict[str, Any]) -> None:
         share = f"{100 * value / total:5.1f}%" if total > 0 and not name.startswith("    ") else ""
         print(f"  {name:58s} {value:8.3f} {share:>6s}")
     print(f"  {'total':58s} {total:8.3f}")
+    print(
+        f"the stages' own compute in series (the simulator's step, then each stage's slowest"
+        f" participant) is {figures['serial_compute_ms']:.2f} ms a tick: with no messaging at"
+        f" all, lockstep would run at most {figures['compute_bound_factor']:.1f}x real time"
+    )
     if "cpu_ms" not in figures:
         return
     by = "the service each thread works for" if figures["in_process"] else "process"

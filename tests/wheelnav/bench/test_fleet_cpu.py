@@ -8,8 +8,9 @@ import time
 
 import pytest
 
+from shared.messages import LockstepProfile
 from wheelnav.bench.cpu import PROC, cpu_seconds
-from wheelnav.bench.fleet import cpu_rows
+from wheelnav.bench.fleet import cpu_rows, summarise
 
 BURN = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.6: pass\n"
 
@@ -41,3 +42,25 @@ def test_cpu_rows_divide_by_the_ticks_between_readings_and_bound_the_factor() ->
     assert rows["cpu_bound_factor"] == pytest.approx(2 * 20.0 / 7.0, abs=0.01)
     assert cpu_rows(first, None, 0.02, 2) is None
     assert cpu_rows(first, (100, {"sim": 1.0}), 0.02, 2) is None
+
+
+def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
+    profile = LockstepProfile(
+        stamp=10.0,
+        dt=0.02,
+        ticks=500,
+        wall_s=5.0,
+        physics_s=0.5,
+        publish_s=0.4,
+        pacing_s=0.0,
+        stage_wait_s=[1.5, 2.0, 0.3],
+        participants=["localisation", "building", "controller", "navigator"],
+        compute_s=[1.0, 0.25, 1.5, 0.1],
+        steps=[500, 500, 250, 100],
+    )
+    stages = [["localisation", "building", "mission"], ["controller"], ["navigator"]]
+    figures = summarise(profile, stages)
+    # 0.5 s of steps + 1.0 (localisation, not building) + 1.5 + 0.1 over 500 ticks
+    assert figures["serial_compute_ms"] == pytest.approx(6.2)
+    assert figures["compute_bound_factor"] == pytest.approx(10.0 / 3.1, abs=0.01)
+    assert figures["realtime_factor"] == pytest.approx(2.0)
