@@ -219,6 +219,31 @@ def test_the_localisation_at_doors_and_missions_lost_to_it_are_summed_up() -> No
     assert figures([rows[2]], 1)["door_loc_error"] is None
 
 
+def test_where_the_time_goes_is_summed_by_phase_over_the_successes() -> None:
+    door = [
+        {"name": "follow", "start_s": 0.0, "end_s": 20.0},
+        {"name": "correct", "start_s": 20.0, "end_s": 30.0},
+        {"name": "pass", "start_s": 30.0, "end_s": 40.0},
+        {"name": "follow", "start_s": 40.0, "end_s": 60.0},
+        {"name": "verify", "start_s": 60.0, "end_s": None},  # still running at the end
+    ]
+    rows = [
+        judge(scenario(), report(True, phases=door)),
+        judge(
+            scenario(),
+            report(False, "stuck", phases=[{"name": "pass", "start_s": 0.0, "end_s": 90.0}]),
+        ),
+        judge(scenario(), report(True)),  # no phases
+    ]
+    assert rows[0]["phase_s"] == {"correct": 10.0, "follow": 40.0, "pass": 10.0}
+    rows[2].pop("phase_s")  # a row stored before phase times
+    f = figures(rows, 3)
+    # the failure's 90 s of pass is not a success's time
+    assert f["time_shares"] == {"follow": 0.6667, "correct": 0.1667, "pass": 0.1667}
+    assert "by phase: follow 67 %, correct 17 %, pass 17 %" in format_figures(f)
+    assert "no phase times" in format_figures(figures([rows[2]], 1))
+
+
 def test_the_time_ratio_is_taken_against_the_first_route() -> None:
     # a re-plan from near the goal leaves a short last route: not the mission's ideal
     row = judge(scenario(), report(True, planned_length_m=1.0, first_planned_length_m=10.0))

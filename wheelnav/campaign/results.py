@@ -92,8 +92,19 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
         "reason": reason,
         "scenario": str(scenario.path),
         "replay": f"wheelnav mission {scenario.path}",
+        "phase_s": phase_seconds(report),
         **localisation(report),
     }
+
+
+def phase_seconds(report: dict[str, Any]) -> dict[str, float]:
+    """Sim seconds the mission spent in each phase of its tree (follow, correct, pass,
+    ride...), summed over its phases of that name: what its time went on."""
+    spent: dict[str, float] = {}
+    for p in report.get("phases", []):
+        if p.get("end_s") is not None and p.get("start_s") is not None:
+            spent[p["name"]] = spent.get(p["name"], 0.0) + p["end_s"] - p["start_s"]
+    return {name: round(s, 2) for name, s in sorted(spent.items())}
 
 
 def localisation(report: dict[str, Any]) -> dict[str, Any]:

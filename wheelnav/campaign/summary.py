@@ -42,8 +42,21 @@ def figures(rows: list[dict[str, Any]], planned: int) -> dict[str, Any]:
         "time_ratio_median": round(float(np.median(ratios)), 3) if ratios else None,
         "time_ratio_p90": round(float(np.percentile(ratios, 90)), 3) if ratios else None,
         "by_kind": {k: f"{v[0]}/{v[1]}" for k, v in sorted(by_kind.items())},
+        "time_shares": time_shares([r for r in ran if r["outcome"] == "success"]),
         **_localisation(ran),
     }
+
+
+def time_shares(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """Each phase's share of the phase time of ``rows`` (those with phase times; rows
+    from before them count as none), largest first: what dominates mission time."""
+    spent: Counter[str] = Counter()
+    for r in rows:
+        spent.update(r.get("phase_s") or {})
+    total = sum(spent.values())
+    if total <= 0:
+        return {}
+    return {name: round(s / total, 4) for name, s in spent.most_common()}
 
 
 def _localisation(ran: list[dict[str, Any]]) -> dict[str, Any]:
@@ -102,8 +115,21 @@ def format_figures(f: dict[str, Any]) -> str:
             f"mission time / (planned length / 0.5 m/s), successful missions: median "
             f"{_num(f['time_ratio_median'], '.2f')}, 90th percentile "
             f"{_num(f['time_ratio_p90'], '.2f')}",
+            _shares_line(f.get("time_shares") or {}),
         ]
     )
+
+
+def _shares_line(shares: dict[str, float]) -> str:
+    """Where the successful missions' time went, by phase (the largest shares)."""
+    if not shares:
+        return "where the time goes: no phase times in these rows"
+    top = list(shares.items())[:8]
+    rest = 1.0 - sum(v for _, v in top)
+    parts = [f"{name} {100 * v:.0f} %" for name, v in top]
+    if rest > 0.005:
+        parts.append(f"other {100 * rest:.0f} %")
+    return "where the successful missions' time goes, by phase: " + ", ".join(parts)
 
 
 def _loc_line(f: dict[str, Any]) -> str:
