@@ -84,8 +84,12 @@ def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
     rows.append(("simulator publishing", p.publish_s * ms))
     compute = dict(zip(p.participants, p.compute_s, strict=True))
     steps = dict(zip(p.participants, p.steps, strict=True))
+    # the floor of a tick in series: the simulator's step, then each stage's slowest
+    # participant (a stage's participants step side by side), with no messaging at all
+    serial_s = p.physics_s
     for k, wait in enumerate(p.stage_wait_s):
         names = stages[k] if k < len(stages) else []
+        serial_s += max((compute[name] for name in names if name in compute), default=0.0)
         rows.append((f"stage {k} wait ({', '.join(names)})", wait * ms))
         for name in names:
             if name in compute:
@@ -97,12 +101,6 @@ def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
                     )
                 )
     rows.append(("simulator pacing", p.pacing_s * ms))
-    # the floor of a tick in series: the simulator's step, then each stage's slowest
-    # participant (a stage's participants step side by side), with no messaging at all
-    serial_s = p.physics_s + sum(
-        max((compute[name] for name in names if name in compute), default=0.0)
-        for names in (stages[k] if k < len(stages) else [] for k in range(len(p.stage_wait_s)))
-    )
     accounted = p.physics_s + p.publish_s + sum(p.stage_wait_s) + p.pacing_s
     rows.append(("other (loop, locks)", max(0.0, p.wall_s - accounted) * ms))
     sim_s = p.ticks * p.dt
