@@ -697,3 +697,28 @@ def test_the_last_degrees_of_a_turn_beside_an_open_leaf_are_not_held(
     assert math.hypot(x - goal[0], y - goal[1]) <= reach, (x, y)
     assert abs(wrap_angle(th - goal[2])) <= DOCK.heading_tolerance_rad + 1e-3
     assert nearest > 0.0
+
+
+def test_the_drive_to_a_pose_keeps_the_margin_along_its_way_not_only_at_its_end() -> None:
+    """Campaign seeds 8100-8111, b8108.m01: a recovery docked the chair onto its route
+    through a 0.95 m gap between a wall and a cupboard. The target lay 2 m ahead, 11 deg
+    off the goal heading, so the move stage drove straight at it, checking the footprint
+    only at its end: the front corner passed 4.2 cm from the wall (limit 5 cm), with the
+    guard's precise strip (2 cm) letting it by. The way there is checked at the docker's
+    margin too; where it fails, the docker plans a manoeuvre, and drives each of its poses
+    the way the search planned (a 1.15 m back-up beyond the reverse reach had the chair
+    turn round twice)."""
+    wall = np.vstack(
+        [
+            _wall(18.2, 11.0, 18.2, 15.5),
+            _wall(19.15, 13.8, 19.15, 14.5),  # the cupboard
+            _wall(19.15, 13.8, 19.95, 13.8),
+            _wall(19.15, 14.5, 19.95, 14.5),
+        ]
+    )
+    start, goal = (19.088, 12.107, math.radians(101.4)), (18.67, 14.08, math.radians(91.0))
+    cmd, x, y, th, t, nearest = dock_with_guard(wall, start, goal)
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    assert math.hypot(x - goal[0], y - goal[1]) <= DOCK.position_tolerance_m
+    assert nearest >= 0.05, round(nearest, 4)
+    assert abs(th - goal[2]) < math.pi, round(math.degrees(th), 1)  # not turned round
