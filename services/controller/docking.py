@@ -436,8 +436,12 @@ class Docker:
         self._turn_left = abs(bearing)  # it steers to face the target, no further
         v = self._speed(dist) * math.cos(bearing)
         v = -v if backwards else v
-        if dist <= self._near() and self._arc_sweeps(v, w, dist, abs(bearing)):
+        near = self._near()
+        if dist <= near and self._arc_sweeps(v, w, dist, abs(bearing)):
             return "near"
+        if dist > near and not self._planned and self._arc_sweeps(v, w, dist - near, abs(bearing)):
+            self._cramped = True  # the way there passes a point within the margin: manoeuvre
+            return 0.0, 0.0
         return v, w
 
     def _final(
@@ -572,8 +576,10 @@ class Docker:
         way that leaves the chair closer to the goal heading (a target behind a chair
         facing the door: back up; a pose across a corridor facing the other way: turn
         first, then back into it, never nose up to the wall or the car door in front);
-        keeps its choice unless the other way is better by ``SWITCH_RAD``."""
-        if dist > self.limits.reverse_reach_m:
+        keeps its choice unless the other way is better by ``SWITCH_RAD``. A manoeuvre's
+        pose is driven to the way the search planned it, however far (its heading is the
+        drive's): a 1.15 m back-up planned past the reach turned the chair round twice."""
+        if dist > self.limits.reverse_reach_m and self.goal == self._target:
             self._backwards = False
             return False
         goal = self.goal[2]
