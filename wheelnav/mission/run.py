@@ -83,6 +83,18 @@ def private_links(fleet_cfg: dict[str, Any], folder: Path) -> None:
     start_after += [name for name in ("driver", "vlp16_driver") if name not in start_after]
 
 
+def startup_failure(missing: list[str], ended: bool, errors: dict[str, str]) -> str:
+    """Why the fleet failed to come up ("" if it did): the services that exited, with their
+    errors, else those whose liveliness token never came. A mission that ended while they
+    came up keeps its own result: campaign b8200.m06 (every lift out of service) failed at
+    tick 0 with its reason, before the planner's token was seen."""
+    if not missing or ended:
+        return ""
+    if errors:
+        return "; ".join(f"{name}: {error}" for name, error in errors.items())
+    return f"services not up: {', '.join(missing)}"
+
+
 class MissionRun:
     """One scenario run: fleet up, goal sent at tick 0, recorder fed, fleet down."""
 
@@ -171,14 +183,13 @@ class MissionRun:
                     self.done,
                     supervisor=self.supervisor,
                 )
-                if missing:
+                errors = {
+                    name: self.supervisor.last_error(name) for name in self.supervisor.failed()
+                }
+                why = startup_failure(missing, self.done.is_set(), errors)
+                if why:
                     self.recorder.state = "failed"
-                    failed = self.supervisor.failed()
-                    self.recorder.reason = (
-                        "; ".join(f"{name}: {self.supervisor.last_error(name)}" for name in failed)
-                        if failed
-                        else f"services not up: {', '.join(missing)}"
-                    )
+                    self.recorder.reason = why
                 else:
                     wall_limit = self.scenario.time_limit_s * 20 + 120
                     if not self.done.wait(wall_limit):
