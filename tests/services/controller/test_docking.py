@@ -769,3 +769,36 @@ def test_a_manoeuvre_beside_an_open_leaf_turns_where_it_was_planned_to() -> None
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
     assert math.hypot(x - goal[0], y - goal[1]) <= DOCK.position_tolerance_m, (x, y)
     assert nearest >= 0.05, round(nearest, 4)
+
+
+def test_a_manoeuvre_that_ends_short_of_the_goal_is_driven_as_planned() -> None:
+    """Campaign seeds 8200-8211, b8210.m01: after a sliding door the chair stood in a
+    2.8 m vestibule, facing the second door, an 0.80 m hinged one whose leaf stands open
+    along the vestibule's side wall. Turn-drive-turn to the approach pose 0.74 m ahead
+    swept the front corner at the leaf, so docking planned a manoeuvre; the search's goal
+    did not fit its grid, and it ended 12 cm beside the goal: turn 5 deg away from the
+    leaf, drive 0.65 m. Docking took the turn, then drove straight to the goal itself,
+    the way the search had not checked, and the front corner came to 2.4 cm from the
+    leaf. The points are the controller's scan at the start; the gap is measured to the
+    world: the leaf's faces, the jambs and the vestibule's walls (cells of 5 cm)."""
+    from pathlib import Path
+
+    scan = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b8210_vestibule_scan.npz")
+    points = scan["points_mm"] / 1000.0
+    start, goal = tuple(scan["pose"]), tuple(scan["goal"])
+    world = np.vstack(
+        [
+            _edge(28.0, 34.625, 28.8, 34.625),  # the leaf, hinged at (28.0, 34.65)
+            _edge(28.8, 34.625, 28.8, 34.675),
+            _edge(28.1, 34.675, 28.8, 34.675),
+            _edge(28.1, 34.65, 28.1, 34.75),  # the second door's jambs
+            _edge(27.9, 34.65, 28.1, 34.65),
+            _edge(28.1, 33.2, 28.1, 33.85),
+            _edge(27.9, 33.85, 28.1, 33.85),
+            _edge(28.1, 34.75, 30.9, 34.75),  # the vestibule's walls
+            _edge(30.9, 34.65, 30.9, 34.75),
+        ]
+    )
+    cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, v0=0.19, truth=world)
+    assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
