@@ -280,7 +280,10 @@ class Docker:
             )
             return
         self.plan_margin = margin
-        self._via = [p for p in poses[:-1] if math.hypot(p[0] - x, p[1] - y) > 0 or p[2] != theta]
+        # one that ends beside the goal is driven to its end as well: the way on from there
+        # to the goal is the docking's own, checked afresh (campaign b8210.m01)
+        kept = poses[:-1] if _ends_on(poses[-1], goal) else poses
+        self._via = [p for p in kept if math.hypot(p[0] - x, p[1] - y) > 0 or p[2] != theta]
         self.plan_note = (
             f"manoeuvre from ({x:.2f}, {y:.2f}, {math.degrees(theta):.0f} deg): "
             f"{len(self._via)} poses, margin {margin:.3f} m"
