@@ -802,3 +802,34 @@ def test_a_manoeuvre_that_ends_short_of_the_goal_is_driven_as_planned() -> None:
     cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, v0=0.19, truth=world)
     assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+
+
+def test_a_goal_that_does_not_fit_is_not_driven_into_after_a_manoeuvre() -> None:
+    """Campaign seeds 8200-8211, b8208.m07: a recovery docked the chair onto its route
+    where it leaves a 2.0 x 2.0 m room for a 1.5 m corridor, at a route point whose
+    footprint, facing along the route, reaches 3 cm into the corridor's wall. Docking
+    planned a manoeuvre that ended 13 cm beside that pose, then sidestepped: backed up
+    0.86 m and drove along the pose's line into it, unchecked once a manoeuvre was
+    planned, until the safety checks held the chair 3.3 cm from the wall, where it stood
+    until the recovery ran out. The points are the controller's scan; the gap is
+    measured to the world (the room's and the corridor's walls, cells of 5 cm)."""
+    from pathlib import Path
+
+    scan = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b8208_corridor_entry_scan.npz")
+    points = scan["points_mm"] / 1000.0
+    start, goal = tuple(scan["pose"]), tuple(scan["goal"])
+    world = np.vstack(
+        [
+            _edge(13.95, 6.7, 13.95, 8.7),  # the room
+            _edge(16.0, 6.7, 16.0, 8.7),
+            _edge(13.95, 8.7, 14.2, 8.7),
+            _edge(15.7, 8.7, 16.0, 8.7),
+            _edge(13.95, 6.7, 14.05, 6.7),
+            _edge(14.85, 6.7, 16.0, 6.7),
+            _edge(14.2, 8.7, 14.2, 10.5),  # the corridor
+            _edge(15.7, 8.7, 15.7, 10.5),
+        ]
+    )
+    cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, truth=world)
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
