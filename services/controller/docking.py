@@ -82,6 +82,7 @@ SIDESTEP_RAD = math.radians(20)  # a sidestep backs up at most this far off the 
 SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a real move)
 SIDESTEP_REACH = 0.9  # and at most this share of reverse_reach_m (it must back up to it)
 SIDESTEPS = 2  # at most this many per goal
+PLANNED_LOOK_M = 0.15  # a drive after a manoeuvre checks this far ahead (1 s at dock speed)
 GOALWARD_RAD = math.radians(15)  # driving within this of the goal heading ends on the goal
 FACE_REACH_M = 0.25  # nearer the goal itself the final stage and a sidestep beat facing it
 SHIFT_RAD = math.radians(45)  # turned this far off the goal heading: drive out what is across
@@ -333,6 +334,9 @@ class Docker:
         if self.stage == "move":
             if dist > self._tol:
                 moved = self._move(ex, ey, dist, theta, obstacles)
+                if moved == "short":  # the way on would not keep the margin: end here
+                    self._arrived = True
+                    return Command(0.0, 0.0, "arrived", progress, dist, 0.0)
                 if isinstance(moved, tuple):
                     return Command(*moved, "following", progress, dist, 0.0, self._turn_left)
                 self._straight = moved is None  # boxed in both ways: turn first, then along
@@ -371,13 +375,15 @@ class Docker:
         backs up to it slantwise, as shallow as ``SIDESTEP_REACH`` of the reverse reach
         allows (under ALIGN_RAD it steers while backing instead of turning on the spot),
         at most ``SIDESTEP_RAD`` off the heading. False (arrive as it stands) when the
-        footprint there, facing the goal heading or the slant, would hold a point, or
-        after ``SIDESTEPS``."""
+        footprint there, facing the goal heading or the slant, would hold a point, when
+        the goal's own footprint holds one, or after ``SIDESTEPS``."""
         gx, gy, gth = self._target
         c, s = math.cos(gth), math.sin(gth)
         across = -(x - gx) * s + (y - gy) * c
         if abs(across) <= self.limits.lateral_tolerance_m or self._sidesteps >= SIDESTEPS:
             return False
+        if not self._fits_at(self._target, gth, self._obstacles, 0.0):
+            return False  # the drive along the line would end in a wall (b8208.m07)
         along = (x - gx) * c + (y - gy) * s
         reach = SIDESTEP_REACH * self.limits.reverse_reach_m
         shallow = max(0.9 * ALIGN_RAD, math.atan2(abs(across), reach))
@@ -416,7 +422,8 @@ class Docker:
         when the footprint at the target holds a point whichever way it faces; ``"near"``
         when the target is within ``near_m`` but off to a side (a stop short of a wall, or
         pose noise): a turn on the spot to face a target a few centimetres away is worse
-        than the final stage's turn to the goal heading and drive along it."""
+        than the final stage's turn to the goal heading and drive along it; ``"short"``
+        when, after a manoeuvre, the way on would bring a point within its margin."""
         lim = self.limits
         direction = math.atan2(ey, ex)
         backwards = self._backwards_to(direction, dist)
@@ -446,6 +453,13 @@ class Docker:
         if dist > near and not self._planned and self._arc_sweeps(v, w, dist - near, abs(bearing)):
             self._cramped = True  # the way there passes a point within the margin: manoeuvre
             return 0.0, 0.0
+        if dist > near and self._planned and self.plan_margin is not None:
+            # after a manoeuvre no other is planned: the drive goes on while the next
+            # PLANNED_LOOK_M of it keeps the plan's margin, and ends where it would not
+            # (b8210.m01, b8208.m07: straight drives the search had not checked)
+            margin = min(self.margin_m, self.plan_margin)
+            if self._arc_sweeps(v, w, min(dist - near, PLANNED_LOOK_M), abs(bearing), margin):
+                return "short"
         return v, w
 
     def _final(
@@ -531,19 +545,23 @@ class Docker:
         angle = math.copysign(turn_rad, w)
         return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
 
-    def _arc_sweeps(self, v: float, w: float, dist: float, turn_rad: float) -> bool:
+    def _arc_sweeps(
+        self, v: float, w: float, dist: float, turn_rad: float, margin_m: float | None = None
+    ) -> bool:
         """True if driving ``dist`` along the arc of (``v``, ``w``), turning at most
-        ``turn_rad``, brings an obstacle point within ``margin_m`` of the footprint, or one
-        already that near nearer still. Campaign b7300w.m04: steering 7 deg onto a pose
-        9 cm away swung the front corner at an open leaf, the guard held it and the chair
-        stood; the final stage's drive along the goal heading turned away from the leaf."""
+        ``turn_rad``, brings an obstacle point within ``margin_m`` (by default the docker's)
+        of the footprint, or one already that near nearer still. Campaign b7300w.m04:
+        steering 7 deg onto a pose 9 cm away swung the front corner at an open leaf, the
+        guard held it and the chair stood; the final stage's drive along the goal heading
+        turned away from the leaf."""
         local = self._local_points()
         if local is None or abs(v) < 1e-6:
             return False
         fp = self.footprint
         length = math.copysign(dist, v)
         poses = swept_arc_poses(length, w / v, turn_rad, fp.front, fp.rear, fp.width)
-        return moves_close_in(local, fp.front, fp.rear, fp.width, self.margin_m, poses)
+        margin = self.margin_m if margin_m is None else margin_m
+        return moves_close_in(local, fp.front, fp.rear, fp.width, margin, poses)
 
     def _local_points(self) -> np.ndarray | None:
         """The obstacle points in the chair's frame at its pose (None: no points or no
@@ -562,10 +580,15 @@ class Docker:
         return self._fits_at(self.goal, heading, pts)
 
     def _fits_at(
-        self, pose: tuple[float, float, float], heading: float, pts: np.ndarray | None
+        self,
+        pose: tuple[float, float, float],
+        heading: float,
+        pts: np.ndarray | None,
+        margin_m: float | None = None,
     ) -> bool:
-        """True if the footprint (grown by ``margin_m``) at ``pose``'s point facing
-        ``heading`` holds none of ``pts`` (always, without points)."""
+        """True if the footprint (grown by ``margin_m``, by default the docker's) at
+        ``pose``'s point facing ``heading`` holds none of ``pts`` (always, without points)."""
+        margin = self.margin_m if margin_m is None else margin_m
         fp = self.footprint
         if pts is None or fp is None or len(pts) == 0:
             return True
@@ -573,7 +596,7 @@ class Docker:
         c, s = math.cos(heading), math.sin(heading)
         dx, dy = pts[:, 0] - gx, pts[:, 1] - gy
         local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
-        return not bool(in_footprint(local, fp.front, fp.rear, fp.width, self.margin_m).any())
+        return not bool(in_footprint(local, fp.front, fp.rear, fp.width, margin).any())
 
     def _backwards_to(self, direction: float, dist: float) -> bool:
         """Drive backwards to a target in ``direction``? Within ``reverse_reach_m``, the
