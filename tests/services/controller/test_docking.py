@@ -218,12 +218,15 @@ def dock_with_guard(
     cell_m: float = 0.0,
     v0: float = 0.0,
     truth: np.ndarray | None = None,
+    seen: bool = False,
 ):
     """Dock among the points ``walls`` with the controller's safety checks in the loop
     (``keep_out``: the doorway ahead, as the navigator sends it); (command, x, y, th, t,
     nearest gap), the gap less half of ``cell_m`` where the points are cell centres.
     ``v0``: the chair's speed at the start (a pass hands over still rolling); ``truth``:
-    the points the gap is measured to, where ``walls`` are them as a scan sees them."""
+    the points the gap is measured to, where ``walls`` are them as a scan sees them;
+    ``seen``: docking and the checks get only the points of ``walls`` a LiDAR at the rear
+    axle sees from each pose (:func:`_visible`), not those hidden behind others."""
     from services.controller.safety import guard
 
     robot, cfg = RobotConfig(), ControllerConfig()
@@ -233,6 +236,8 @@ def dock_with_guard(
     dt, t, nearest = 1.0 / RATE, 0.0, math.inf
     while t < 90.0:
         near = walls[np.hypot(walls[:, 0] - x, walls[:, 1] - y) < 3.0]
+        if seen:
+            near = _visible(near, x, y)
         cmd = docker.step(x, y, th, obstacles=near, period_s=dt)
         if cmd.state == "arrived":
             break
@@ -273,6 +278,19 @@ def dock_with_guard(
         nearest = min(nearest, float(gap.min()) - cell_m / 2)
         t += dt
     return cmd, x, y, th, t, nearest
+
+
+def _visible(points: np.ndarray, x: float, y: float, bin_deg: float = 1.0) -> np.ndarray:
+    """The ``points`` a LiDAR at (x, y) sees: in each ``bin_deg`` of bearing, those within
+    2 cm of the nearest (the world's edges sampled every 5 mm: 0.3 deg at 1 m)."""
+    dx, dy = points[:, 0] - x, points[:, 1] - y
+    r = np.hypot(dx, dy)
+    a = np.floor(np.degrees(np.arctan2(dy, dx)) / bin_deg).astype(int)
+    order = np.lexsort((r, a))
+    a_s, r_s = a[order], r[order]
+    first = np.r_[True, a_s[1:] != a_s[:-1]]
+    nearest = np.maximum.accumulate(np.where(first, np.arange(len(a_s)), 0))
+    return points[order[r_s <= r_s[nearest] + 0.02]]
 
 
 def test_between_two_doors_in_series_it_manoeuvres_where_it_cannot_turn() -> None:
@@ -833,3 +851,33 @@ def test_a_goal_that_does_not_fit_is_not_driven_into_after_a_manoeuvre() -> None
     cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, truth=world)
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
     assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
+
+
+def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    """The four edges of a block standing in a room (a column, a cupboard)."""
+    return np.vstack(
+        [_edge(x0, y0, x1, y0), _edge(x1, y0, x1, y1), _edge(x1, y1, x0, y1), _edge(x0, y1, x0, y0)]
+    )
+
+
+def test_a_manoeuvre_planned_beside_a_face_it_could_not_see_is_planned_again() -> None:
+    """Campaign seeds 8200-8211, b8200.m00: in a hall, held between two blocks (0.6 x 1.1
+    m and 0.9 x 0.4 m), a recovery docked the chair onto its route, 1.7 m away round the
+    first block's corner. From where it started, the block's far face was hidden behind
+    it, so the manoeuvre planned a turn on the spot beside that face; there the scan showed
+    it, the safety checks held the turn, and the chair stood until the recovery gave up
+    (at 3489110 the turn went on, 4.8 cm from the block). Here the LiDAR sees from each
+    pose only what is not hidden (the hall's walls and the two blocks, cells of 5 cm)."""
+    world = np.vstack(
+        [
+            _box(7.2, 35.2, 7.8, 36.3),
+            _box(7.75, 33.85, 8.65, 34.25),
+            _edge(10.0, 32.0, 10.0, 36.1),
+            _edge(4.5, 38.15, 10.0, 38.15),
+        ]
+    )
+    start, goal = (8.51, 35.66, math.radians(-113)), (7.29, 34.52, math.radians(-144.8))
+    cmd, x, y, th, t, nearest = dock_with_guard(world, start, goal, truth=world, seen=True)
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+    assert math.hypot(x - goal[0], y - goal[1]) <= DOCK.position_tolerance_m, (x, y)
+    assert nearest >= 0.05, round(nearest, 4)
