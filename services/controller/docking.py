@@ -83,6 +83,7 @@ SIDESTEP_MIN_M = 0.15  # and at least this far along it (more than near_m: a rea
 SIDESTEP_REACH = 0.9  # and at most this share of reverse_reach_m (it must back up to it)
 SIDESTEPS = 2  # at most this many per goal
 PLANNED_LOOK_M = 0.15  # a drive after a manoeuvre checks this far ahead (1 s at dock speed)
+REPLANS = 2  # a manoeuvre the scan shows would not keep its margin is planned again this often
 GOALWARD_RAD = math.radians(15)  # driving within this of the goal heading ends on the goal
 FACE_REACH_M = 0.25  # nearer the goal itself the final stage and a sidestep beat facing it
 SHIFT_RAD = math.radians(45)  # turned this far off the goal heading: drive out what is across
@@ -180,7 +181,7 @@ class Docker:
         self._across = self._across_limit(keep_out)
         self.plan_margin: float | None = None
         self._still_s, self._still_at, self._cramped = 0.0, None, False
-        self._sidesteps = 0
+        self._sidesteps = self._replans = 0
         self._aim(
             x, y, heading, self.limits.position_tolerance_m, self.limits.heading_tolerance_rad
         )
@@ -459,7 +460,7 @@ class Docker:
             # (b8210.m01, b8208.m07: straight drives the search had not checked)
             margin = min(self.margin_m, self.plan_margin)
             if self._arc_sweeps(v, w, min(dist - near, PLANNED_LOOK_M), abs(bearing), margin):
-                return "short"
+                return (0.0, 0.0) if self._replan() else "short"
         return v, w
 
     def _final(
@@ -511,6 +512,10 @@ class Docker:
         other way would not (a point off the front on one side, near a half turn); kept
         until aligned. Neither: this way, marked cramped (a manoeuvre may be needed)."""
         turned = w
+        kept = self._kept_margin()
+        replan = not self._turn_sign and kept is not None and self._sweeps(w, left_rad, kept)
+        if replan and self._replan():
+            return 0.0
         if self._turn_sign:
             turned = math.copysign(abs(w), self._turn_sign)
         elif self._sweeps(w, left_rad):
@@ -521,16 +526,40 @@ class Docker:
         self._turn_left = left_rad if turned * w > 0 else 2.0 * math.pi - left_rad
         return turned
 
-    def _sweeps(self, w: float, left_rad: float = SWEEP_RAD) -> bool:
+    def _sweeps(self, w: float, left_rad: float = SWEEP_RAD, margin_m: float | None = None) -> bool:
         """True if turning on the spot the way of ``w``, ``SWEEP_RAD`` or the ``left_rad``
-        still to go if less, brings an obstacle point within ``margin_m`` of the footprint,
-        or one already that near nearer still (none, without points)."""
+        still to go if less, brings an obstacle point within ``margin_m`` (by default the
+        docker's) of the footprint, or one already that near nearer still (none, without
+        points)."""
         local = self._local_points()
         if local is None:
             return False
         fp = self.footprint
         angle = math.copysign(min(SWEEP_RAD, left_rad), w)
-        return turn_closes_in(local, fp.front, fp.rear, fp.width, self.margin_m, angle)
+        margin = self.margin_m if margin_m is None else margin_m
+        return turn_closes_in(local, fp.front, fp.rear, fp.width, margin, angle)
+
+    def _kept_margin(self) -> float | None:
+        """The margin the manoeuvre under way keeps to scan points (None: none is)."""
+        if not self._planned or self.plan_margin is None:
+            return None
+        return min(self.margin_m, self.plan_margin)
+
+    def _replan(self) -> bool:
+        """Plan the manoeuvre under way again from here, at most ``REPLANS`` times a goal:
+        the scan now shows it would bring a point within its margin, a face the scan it
+        was planned on did not show (campaign b8200.m00: the far side of a column in a
+        hall, hidden from where the manoeuvre began, swept by the rear corner of a turn
+        planned beside it). True if it was (a new manoeuvre, or none found: docking as
+        usual from here)."""
+        if self._replans >= REPLANS or self._pose is None:
+            return False
+        self._replans += 1
+        self._via, self.plan_margin = [], None
+        lim = self.limits
+        self._aim(*self._target, lim.position_tolerance_m, lim.heading_tolerance_rad)
+        self._plan(*self._pose, self._obstacles)
+        return True
 
     def _sweeps_all(self, w: float, turn_rad: float) -> bool:
         """True if turning on the spot the way of ``w`` by the whole of ``turn_rad`` (at
