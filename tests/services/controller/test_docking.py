@@ -752,6 +752,15 @@ def test_the_drive_to_a_pose_keeps_the_margin_along_its_way_not_only_at_its_end(
     assert abs(th - goal[2]) < math.pi, round(math.degrees(th), 1)  # not turned round
 
 
+def _scan_fixture(name: str) -> tuple[np.ndarray, tuple, tuple]:
+    """(points m, start pose, goal pose) of a controller's scan saved in a campaign
+    mission, ``tests/fixtures/manoeuvre/<name>.npz``."""
+    from pathlib import Path
+
+    scan = np.load(Path(__file__).parents[2] / f"fixtures/manoeuvre/{name}.npz")
+    return scan["points_mm"] / 1000.0, tuple(scan["pose"]), tuple(scan["goal"])
+
+
 def _edge(x1: float, y1: float, x2: float, y2: float) -> np.ndarray:
     """Points every 5 mm along a straight edge of the world (a gap measured to them is
     within a millimetre of the gap to the edge)."""
@@ -767,11 +776,7 @@ def test_a_manoeuvre_beside_an_open_leaf_turns_where_it_was_planned_to() -> None
     was planned and the rear corner swept past the leaf's tip 4.3 cm from it (limit 5 cm;
     4.6 cm in the mission). The points are the controller's scan at that moment; the gap
     is measured to the world: the vestibule's walls and both faces of the 5 cm leaf."""
-    from pathlib import Path
-
-    scan = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b8105_vestibule_scan.npz")
-    points = scan["points_mm"] / 1000.0
-    start, goal = tuple(scan["pose"]), tuple(scan["goal"])
+    points, start, goal = _scan_fixture("b8105_vestibule_scan")
     world = np.vstack(
         [
             _edge(26.375, 13.95, 26.375, 14.75),  # the leaf, hinged at (26.4, 13.95)
@@ -799,11 +804,7 @@ def test_a_manoeuvre_that_ends_short_of_the_goal_is_driven_as_planned() -> None:
     the way the search had not checked, and the front corner came to 2.4 cm from the
     leaf. The points are the controller's scan at the start; the gap is measured to the
     world: the leaf's faces, the jambs and the vestibule's walls (cells of 5 cm)."""
-    from pathlib import Path
-
-    scan = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b8210_vestibule_scan.npz")
-    points = scan["points_mm"] / 1000.0
-    start, goal = tuple(scan["pose"]), tuple(scan["goal"])
+    points, start, goal = _scan_fixture("b8210_vestibule_scan")
     world = np.vstack(
         [
             _edge(28.0, 34.625, 28.8, 34.625),  # the leaf, hinged at (28.0, 34.65)
@@ -831,11 +832,7 @@ def test_a_goal_that_does_not_fit_is_not_driven_into_after_a_manoeuvre() -> None
     planned, until the safety checks held the chair 3.3 cm from the wall, where it stood
     until the recovery ran out. The points are the controller's scan; the gap is
     measured to the world (the room's and the corridor's walls, cells of 5 cm)."""
-    from pathlib import Path
-
-    scan = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b8208_corridor_entry_scan.npz")
-    points = scan["points_mm"] / 1000.0
-    start, goal = tuple(scan["pose"]), tuple(scan["goal"])
+    points, start, goal = _scan_fixture("b8208_corridor_entry_scan")
     world = np.vstack(
         [
             _edge(13.95, 6.7, 13.95, 8.7),  # the room
