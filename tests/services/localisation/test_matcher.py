@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -181,3 +182,18 @@ def test_a_pose_near_one_wall_is_not_pulled_into_it(tmp_path) -> None:
         m = match_scan(field, pts[np.abs(pts[:, 2]) < 0.5], (x, y, theta), prior_weight=20.0)
         assert math.hypot(m.x - x, m.y - y) < 0.005, (x, y, m.x, m.y)
         assert abs(m.theta - theta) < math.radians(0.1)
+
+
+def test_a_scan_with_no_point_on_a_wall_gives_no_nan_covariance() -> None:
+    """Campaign seeds 8300-8311, b8308.m03: a scan with no point within ``inlier_m`` of
+    a wall has an infinite rms; its covariance was the normal matrix's inverse times
+    infinity, and 0 x inf put NaN in it (a RuntimeWarning in the campaign's output). Such
+    a match is a miss either way; its covariance says "unknown", not NaN."""
+    a = np.linspace(0.0, 2.0 * math.pi, 60, endpoint=False)
+    ring = np.column_stack((0.3 * np.cos(a), 0.3 * np.sin(a)))  # nothing near a wall
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = match_scan(FIELD, ring, (3.0, 1.8, 0.4), iterations=1)
+    assert m.inlier_ratio == 0.0
+    assert not np.isnan(m.covariance).any(), m.covariance
+    assert np.isinf(np.diag(m.covariance)).all()
