@@ -185,6 +185,7 @@ def match_scan(
     inliers = np.abs(d) < inlier_m
     ratio = float(inliers.mean()) if len(d) else 0.0
     rms = float(np.sqrt(np.mean(d[inliers] ** 2))) if inliers.any() else math.inf
-    sigma2 = max(rms, 0.01) ** 2
-    cov = np.linalg.inv(h) * sigma2
+    # no point on a wall: a miss whatever the pose, its spread unknown (0 x inf is NaN)
+    unknown = np.diag([math.inf] * 3)
+    cov = np.linalg.inv(h) * max(rms, 0.01) ** 2 if math.isfinite(rms) else unknown
     return Match(float(x), float(y), wrap_angle(th), ratio, rms, it, cov)
