@@ -242,3 +242,25 @@ def test_a_chair_waits_behind_a_manual_leaf_only_where_it_can_get_there(
     else:
         assert cp.approach[0] == pytest.approx(behind, abs=0.06)
         assert not cp.in_sweep
+
+
+def test_a_chair_waits_behind_a_manual_leaf_where_that_has_more_room_than_beside_it(
+    tmp_path: Path,
+) -> None:
+    # campaign seeds 8400-8411, b8402.m05: an 0.80 m manual door hinged 10 cm from a side
+    # wall, its leaf opening towards the chair. Behind the leaf's sweep the strip had
+    # 13.5 cm more room a side than the chair needs, under the 15 cm asked for, so the
+    # approach pose went into the sweep, beside the open leaf, where the chair has 1.25 cm
+    # more (the leaf's face 6.25 cm from its side): docking there came to 1.5 cm from the
+    # leaf. Behind the sweep is the roomier place to wait, so the chair waits there.
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5), (4.9, 0, 5.1, 5)]
+    walls.append((t, 1.75, 4.9, 1.9))  # the side wall, 10 cm beyond the hinge
+    gaps = [(4.9, 2.0, 5.1, 2.8)]
+    keys = {"d": {"motion": "hinged", "swing": "left"}}
+    site = make_site(tmp_path, walls, gaps, [("d", (5.0, 2.0), (5.0, 2.8))], (10, 5), keys)
+    (cp,) = routes_for(site).route((1.0, 3.5), "1", (8.5, 2.5), "1").checkpoints
+    fp = ROBOT.footprint
+    behind = 5.0 - (fp.front + 0.8 + 0.25)  # the pose behind the leaf's sweep
+    assert not cp.in_sweep
+    assert cp.approach[0] == pytest.approx(behind, abs=0.06)
