@@ -270,8 +270,9 @@ class PlannerConfig:
     door_pose_margin_m: float = field(default=0.05, metadata=check(_non_negative))
     # before a manual leaf that opens towards it the chair waits behind the leaf's sweep
     # only where the strip there has this much more room a side (docking ends within
-    # 0.15 m of a pose; squeezed between a table and a wall, it was never reached), else
-    # at door_standoff_m, in the sweep: a manual leaf moves only by hand
+    # 0.15 m of a pose; squeezed between a table and a wall, it was never reached), or
+    # a map cell more than it has beside the open leaf in the sweep (an 0.80 m door: 1.25
+    # cm), else at door_standoff_m, in the sweep: a manual leaf moves only by hand
     door_leaf_wait_side_m: float = field(default=0.15, metadata=check(_non_negative))
     # legs to a door's or a lift's pose end with a straight run-in this long along it
     run_in_m: float = field(default=1.0, metadata=check(_non_negative))

@@ -375,9 +375,14 @@ class RoutePlanner:
         wait_leaf = leaf
         if leaf > 0 and door.type == "manual":
             # behind a manual leaf only where the chair can get there (world-differs
-            # b7200w.m04, b7101w.m07: a pose 7.5 and 10 cm beside a table, never reached)
+            # b7200w.m04, b7101w.m07: a pose 7.5 and 10 cm beside a table, never reached),
+            # or where that has a map cell more room a side than the pose in the sweep,
+            # beside the open leaf (b8402.m05: 13.5 cm behind an 0.80 m door's sweep, 1.25
+            # cm beside its leaf, where docking came to 1.5 cm from it)
             body = fp.front + fp.rear + room.margin_m
-            side_m = room.half_width_m + self.cfg.door_leaf_wait_side_m
+            beside_leaf = (width - door.leaf_thickness_m / 2) / 2 - room.half_width_m
+            more = max(beside_leaf, 0.0) + grid.resolution
+            side_m = room.half_width_m + min(self.cfg.door_leaf_wait_side_m, more)
             start = centre - n * (leaf + LEAF_CLEAR_M)  # the chair's front, waiting there
             if free_depth(occ, grid.resolution, origin, start, -n, side_m, body) < body:
                 wait_leaf = 0.0
