@@ -157,6 +157,7 @@ class Docker:
         self._planned = False
         self.plan_note = ""  # what the last manoeuvre search found, for the node's log
         self._cramped = False  # a turn the short way would sweep into a point
+        self._boxed = False  # and the other way too: plan a manoeuvre even at the goal point
         self._turn_left = math.inf  # how far this cycle's turn on the spot has to go
         self._still_s = 0.0  # commanded to move and not moving, since _still_at
         self._still_at: tuple[float, float, float] | None = None
@@ -181,6 +182,7 @@ class Docker:
         self._across = self._across_limit(keep_out)
         self.plan_margin: float | None = None
         self._still_s, self._still_at, self._cramped = 0.0, None, False
+        self._boxed = False
         self._sidesteps = self._replans = 0
         self._aim(
             x, y, heading, self.limits.position_tolerance_m, self.limits.heading_tolerance_rad
@@ -311,8 +313,9 @@ class Docker:
         self._turn_left = math.inf
         target = self._target or self.goal
         there = math.hypot(target[0] - x, target[1] - y) <= self.limits.position_tolerance_m
-        # a turn at the goal point the short way held: the long way first; stuck: manoeuvre
-        cramped = self._cramped and not there
+        # a turn at the goal point the short way held: the long way first; stuck, or
+        # neither way keeps the margin: manoeuvre
+        cramped = self._cramped and (not there or self._boxed)
         if (self._stuck(x, y, theta, period_s) or cramped) and not self._planned and pose_fresh:
             self._plan(x, y, theta, obstacles)
         lim = self.limits
@@ -523,6 +526,12 @@ class Docker:
             if not self._sweeps_all(-w, 2.0 * math.pi - left_rad):
                 self._turn_sign = -math.copysign(1.0, w)
                 turned = -w
+            elif not self._planned:
+                # neither way keeps the margin: plan a manoeuvre before turning, not leave
+                # it to the safety checks (b8405.m02: their hold on a jamb's corner let
+                # go, 4.6 cm from it); none found, the turn goes on as before
+                self._boxed = True
+                return 0.0
         self._turn_left = left_rad if turned * w > 0 else 2.0 * math.pi - left_rad
         return turned
 

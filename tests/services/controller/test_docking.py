@@ -499,7 +499,9 @@ def test_a_turn_is_not_sent_the_long_way_round_into_what_stands_behind() -> None
     docker = Docker(DOCK, fp, 0.05)
     docker.set_goal(0.0, 0.0, math.radians(12))
     cmd = docker.step(0.0, 0.0, 0.0, obstacles=np.vstack((ahead_left, behind)))
-    assert cmd.v == 0.0 and cmd.w > 0.0  # the short way (held, a manoeuvre if need be)
+    assert cmd.v == 0.0 and cmd.w == 0.0  # neither way keeps the margin: a stop to plan
+    cmd = docker.step(0.0, 0.0, 0.0, obstacles=np.vstack((ahead_left, behind)), period_s=0.1)
+    assert cmd.v < 0.0 and cmd.w == 0.0  # a manoeuvre: back up from the point first
     # a half turn: the first 15 deg of 170 to the left bring the front-left corner to a
     # point 35 deg off the nose that 190 deg to the right never comes near: taken
     left = np.array([[0.75 * math.cos(math.radians(35)), 0.75 * math.sin(math.radians(35))]])
