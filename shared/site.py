@@ -84,10 +84,17 @@ class Door:
         return math.hypot(self.p2[0] - self.p1[0], self.p2[1] - self.p1[1])
 
     @property
+    def clear_width_m(self) -> float:
+        """The opening's free width: a hinged leaf standing open at its hinge (``p1``) has
+        half its thickness inside the opening."""
+        if self.motion != "hinged":
+            return self.width_m
+        return self.width_m - self.leaf_thickness_m / 2
+
+    @property
     def pass_centre(self) -> tuple[float, float]:
-        """The middle of the free opening, where a pass crosses: a hinged leaf standing open
-        at its hinge (``p1``) has half its thickness inside the opening, so the middle lies a
-        quarter of the thickness from the segment's towards ``p2``."""
+        """The middle of the free opening (:attr:`clear_width_m`), where a pass crosses: a
+        quarter of a hinged leaf's thickness from the segment's middle towards ``p2``."""
         mx, my = (self.p1[0] + self.p2[0]) / 2, (self.p1[1] + self.p2[1]) / 2
         if self.motion != "hinged":
             return mx, my

@@ -380,7 +380,7 @@ class RoutePlanner:
             # beside the open leaf (b8402.m05: 13.5 cm behind an 0.80 m door's sweep, 1.25
             # cm beside its leaf, where docking came to 1.5 cm from it)
             body = fp.front + fp.rear + room.margin_m
-            beside_leaf = (width - door.leaf_thickness_m / 2) / 2 - room.half_width_m
+            beside_leaf = door.clear_width_m / 2 - room.half_width_m
             more = max(beside_leaf, 0.0) + grid.resolution
             side_m = room.half_width_m + min(self.cfg.door_leaf_wait_side_m, more)
             start = centre - n * (leaf + LEAF_CLEAR_M)  # the chair's front, waiting there

@@ -248,10 +248,9 @@ def dock_with_guard(
             (dx * math.cos(th) + dy * math.sin(th), -dx * math.sin(th) + dy * math.cos(th), 0 * dx)
         )
         margin = docker.turn_margin(robot.side_margin_m, cfg.precise_side_margin_m)  # as the node
-        cv, cw, _ = (
-            (cmd.v, cmd.w, "")
-            if not checks
-            else guard(
+        cv, cw = cmd.v, cmd.w
+        if checks:
+            cv, cw, _ = guard(
                 cmd.v,
                 cmd.w,
                 cmd.state,
@@ -266,7 +265,6 @@ def dock_with_guard(
                 margin,
                 cmd.turn_left_rad,
             )
-        )
         v += (cv - v) * dt / LAG_S
         w += (cw - w) * dt / LAG_S
         x, y, th = x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt
