@@ -907,3 +907,32 @@ def test_a_turn_at_the_goal_that_neither_way_keeps_the_margin_is_not_left_to_the
     cmd, x, y, th, t, nearest = dock_with_guard(world, start, goal, truth=world, checks=False)
     assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+
+
+def test_the_last_drive_of_a_manoeuvre_is_driven_as_planned_not_aimed_at_the_goal() -> None:
+    """Campaign seeds 8600-8611, b8611.m02: an 0.80 m door whose leaf stands open towards
+    the chair beside a cupboard; the approach pose, 1.0 m before the door, is 6.5 cm from
+    the leaf. Docking planned a manoeuvre whose last drive ran straight along the goal
+    heading, 4.7 cm beside the goal's line (a cell: "on" it), and dropped that drive as
+    the final stage's; but from the pose before it, 0.70 m away, docking steered straight
+    at the goal, 4 deg off the heading, and swung the front corner to 3.7 cm from the
+    leaf's tip. The points are the controller's scan; the gap is measured to the world:
+    the leaf's faces, the cupboard, the jamb and the room's walls."""
+    points, start, goal = _scan_fixture("b8611_leaf_and_cupboard_scan")
+    world = np.vstack(
+        [
+            _edge(38.875, 12.7, 38.875, 13.4),  # the leaf, hinged at (38.9, 12.6)
+            _edge(38.875, 13.4, 38.925, 13.4),
+            _edge(38.925, 12.7, 38.925, 13.4),
+            _box(38.9, 13.6, 39.6, 14.3),  # the cupboard
+            _edge(38.1, 12.5, 38.1, 12.7),  # the other jamb
+            _edge(36.6, 12.7, 38.1, 12.7),  # the room's walls
+            _edge(38.925, 12.7, 39.6, 12.7),
+            _edge(36.6, 12.7, 36.6, 16.2),
+            _edge(39.6, 12.7, 39.6, 16.2),
+            _edge(36.6, 16.2, 39.6, 16.2),
+        ]
+    )
+    cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, truth=world)
+    assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
