@@ -284,9 +284,12 @@ class Docker:
             )
             return
         self.plan_margin = margin
-        # one that ends beside the goal is driven to its end as well: the way on from there
-        # to the goal is the docking's own, checked afresh (campaign b8210.m01)
-        kept = poses[:-1] if _ends_on(poses[-1], goal) else poses
+        # driven to its end, whether that is on the goal's line or beside it: what is left
+        # the final stage takes out, along the goal heading. Steering from the pose before
+        # the end straight at the goal is a way the search never checked (campaign
+        # b8210.m01: ending beside it; b8611.m02: 4.7 cm across a 0.70 m drive, 4 deg off
+        # the heading, swung the front corner to a leaf's tip)
+        kept = poses if _moves([poses[-1]], goal) else poses[:-1]  # at the goal: aim it
         self._via = [p for p in kept if math.hypot(p[0] - x, p[1] - y) > 0 or p[2] != theta]
         self.plan_note = (
             f"manoeuvre from ({x:.2f}, {y:.2f}, {math.degrees(theta):.0f} deg): "
