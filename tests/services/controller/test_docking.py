@@ -936,3 +936,27 @@ def test_the_last_drive_of_a_manoeuvre_is_driven_as_planned_not_aimed_at_the_goa
     cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, truth=world)
     assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
     assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
+
+
+def test_a_manoeuvre_keeps_its_margin_to_points_beyond_the_window_it_was_planned_in() -> None:
+    """Campaign seeds 8700-8711, b8706.m02: docking at a door's approach pose, 1.9 m
+    before an 0.85 m door whose leaf stands open towards the chair, planned a manoeuvre
+    in a window 1.5 m round the pose and the goal, from the scan points inside it. One of
+    its poses lay 0.9 m nearer the door, inside the window, but the chair's front there
+    reached out of it, past the window's edge, where the points had been left out: the
+    front corner came to 3.5 cm from the door's jamb. The points are the controller's
+    scan; the gap is measured to the world: the door's wall and jamb, the open leaf and
+    the room's side wall."""
+    points, start, goal = _scan_fixture("b8706_room_door_scan")
+    world = np.vstack(
+        [
+            _edge(33.0, 19.3, 34.9, 19.3),  # the door's wall, to its jamb
+            _edge(34.9, 19.1, 34.9, 19.3),
+            _edge(35.7, 19.3, 35.7, 20.05),  # the open leaf, hinged at (35.75, 19.2)
+            _edge(35.7, 20.05, 35.75, 20.05),
+            _edge(35.85, 19.3, 35.85, 22.6),  # the room's side wall
+        ]
+    )
+    cmd, x, y, th, t, nearest = dock_with_guard(points, start, goal, truth=world)
+    assert nearest >= 0.05, (round(nearest, 4), round(x, 3), round(y, 3), round(th, 3))
+    assert cmd.state == "arrived", (round(t, 1), round(x, 2), round(y, 2), round(th, 2))
