@@ -256,7 +256,13 @@ class Docker:
         hi = np.maximum((x, y), goal[:2]) + ROOM_REACH_M
         shape = np.ceil((hi - lo) / ROOM_CELL_M).astype(int)
         pts = np.vstack([np.asarray(obstacles, dtype=float)[:, :2], self._keep_out])
-        inside = pts[((pts >= lo) & (pts < lo + shape * ROOM_CELL_M)).all(axis=1)]
+        # and the points beyond the window that a footprint standing in it reaches: a pose
+        # near its edge puts the front past it (campaign b8706.m02: 3.5 cm from a jamb
+        # the window had left out)
+        reach = math.hypot(max(fp.front, fp.rear), fp.width / 2) + self.margin_m
+        reach += PLAN_SLACK_M + 2 * ROOM_CELL_M  # and what the room grows a point by
+        ends = lo + shape * ROOM_CELL_M
+        inside = pts[((pts >= lo - reach) & (pts < ends + reach)).all(axis=1)]
         origin = (float(lo[0]), float(lo[1]))
         poses, margin, short = None, 0.0, None
         # with slack first; a chair held by the safety checks may stand nearer than that.
