@@ -511,24 +511,17 @@ def test_a_turn_is_not_sent_the_long_way_round_into_what_stands_behind() -> None
 B10_START = (40.23, 7.58, math.radians(-168))  # in the room between d1_012 and d1_011
 
 
-def b10_series_room(tmp_path, leaves: bool):
-    """Generated building 10's floor 1, d1_011 and its approach pose (facing +y), and the
-    map's LiDAR scan from ``B10_START`` (the open leaves drawn in with ``leaves``)."""
-    from services.planner.grid_planner import with_open_leaves
-    from shared.site import load_site
-    from sim.building_gen import GenOptions, generate_building
-    from wheelnav.bench.mpc import Scene, lidar_scan
+def b10_series_room(leaves: bool) -> tuple[tuple, tuple, np.ndarray]:
+    """Generated building 10's floor 1 as camp22 drew it (before the vestibule rule and the
+    furniture's passage beside open leaves): d1_011's p1, width and leaf thickness, its
+    approach pose (facing +y) and the map's LiDAR scan from ``B10_START`` (the open leaves
+    drawn in with ``leaves``), saved in ``tests/fixtures/manoeuvre/b10_series_room_scan.npz``."""
+    from pathlib import Path
 
-    # drawn as before the vestibule rule: camp22's building 10 (its series room is 1.8 m)
-    built = generate_building(10, tmp_path / "b10", GenOptions(floors=(1, 3), vestibule_m=0.0))
-    site = load_site(built.site_path / "site.yaml")
-    grid = site.floors["1"].map
-    door = next(d for d in site.doors if d.id == "d1_011")
-    goal = (door.pass_centre[0], door.pass_centre[1] - 1.0, math.pi / 2)
-    walls = grid.occupied(True)
-    walls = with_open_leaves(walls, site, "1") if leaves else walls
-    scene = Scene("b10", walls, grid.origin[:2], None, None, None, B10_START)
-    return door, goal, lidar_scan(scene, B10_START[0], B10_START[1], beams=1800)
+    scan = np.load(Path(__file__).parents[2] / "fixtures/manoeuvre/b10_series_room_scan.npz")
+    points = scan["leaves_mm" if leaves else "walls_mm"] / 1000.0
+    door = (tuple(scan["p1"]), float(scan["width"]), float(scan["leaf_thickness"]))
+    return door, tuple(scan["goal"]), points
 
 
 def across_after_planning(goal, points) -> tuple[float, str]:
@@ -542,30 +535,28 @@ def across_after_planning(goal, points) -> tuple[float, str]:
     return abs(docker._via[-1][0] - goal[0]), docker.plan_note
 
 
-def test_a_manoeuvre_that_reaches_the_goal_at_a_smaller_margin_beats_one_that_stops_short(
-    tmp_path,
-) -> None:
+def test_a_manoeuvre_that_reaches_the_goal_at_a_smaller_margin_beats_one_that_stops_short() -> None:
     """Camp22 b10.m00 (generated building 10): in the room between doors d1_012 and d1_011
     in series, d1_011's 0.95 m leaf open into it, the approach pose did not fit at the
     search's first margin (0.08 m) and that search ended at any pose within its 0.15 m
     slack, 0.13 m beside the door's line; the docker took it and Phase 0 failed three
     times, "not within 0.15 m". At 0.05 m the pose fits and the manoeuvre ends on the
     line: that one is taken."""
-    _door, goal, points = b10_series_room(tmp_path, leaves=True)
+    _door, goal, points = b10_series_room(leaves=True)
     across, note = across_after_planning(goal, points)
     assert across <= 0.05, note
 
 
-def test_a_manoeuvre_onto_a_pose_beside_a_leaf_seen_through_range_noise(tmp_path) -> None:
+def test_a_manoeuvre_onto_a_pose_beside_a_leaf_seen_through_range_noise() -> None:
     """Camp22 b10.m00 again, with the leaf as the simulator's LiDAR shows it: its face
     9 cm beyond the chair's side at the approach pose, the points scattered up to 5 cm
     nearer by range noise. On 5 cm cells grown by the margin and half a cell the pose did
     not fit even at 0.025 m; a last search at no margin (the grid is conservative, the
     guard keeps its own) ends on the door's line."""
-    door, goal, walls = b10_series_room(tmp_path, leaves=False)
+    (p1, width, thickness), goal, walls = b10_series_room(leaves=False)
     rng = np.random.default_rng(3)
-    face = door.p1[0] - door.leaf_thickness_m / 2  # the leaf stands along x = p1's, inward
-    ys = rng.uniform(door.p1[1] - door.width_m, door.p1[1], 2500)
+    face = p1[0] - thickness / 2  # the leaf stands along x = p1's, inward
+    ys = rng.uniform(p1[1] - width, p1[1], 2500)
     leaf = np.column_stack((face - np.abs(rng.normal(0.0, 0.015, ys.size)), ys))
     across, note = across_after_planning(goal, np.vstack((walls, leaf)))
     assert across <= 0.05, note
