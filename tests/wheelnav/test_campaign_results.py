@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from shared.config import ConfigError, FleetConfig
-from wheelnav.campaign.results import ResultStore, door_requirement_m, judge
+from wheelnav.campaign.results import ResultStore, clearance_note, door_requirement_m, judge
 from wheelnav.campaign.runner import CampaignSpec, add_commands, generate, reusable, run
 from wheelnav.campaign.summary import (
     figures,
@@ -84,6 +84,24 @@ def test_collisions_and_tight_doors_are_counted() -> None:
     assert f["collisions"] == 1 and f["clearance_violations"] == 1 and f["missions_run"] == 1
     assert "replay: wheelnav mission b1/m0.yaml" in format_failures([row])
     assert "b1.m0" in format_table([row]) and "as expected 0" in format_figures(f)
+
+
+def test_the_progress_line_says_the_clearance_and_which_limit_a_mission_missed() -> None:
+    assert clearance_note(judge(scenario(), report(True))) == "clearance 0.120 m"
+    near = judge(
+        scenario(),
+        report(
+            True,
+            min_clearance_away_m=0.035,
+            door_clearance=[{"door": "d2_009", "width_m": 0.9, "min_clearance_m": 0.05}],
+        ),
+    )
+    assert clearance_note(near) == (
+        "clearance 0.035 m, BELOW A LIMIT: under 0.05 m away from doors; tight in d2_009"
+    )
+    assert clearance_note(judge(scenario(), report(False, min_clearance_away_m=None))) == (
+        "clearance -"
+    )
 
 
 def test_rows_survive_a_stop(tmp_path: Path) -> None:

@@ -97,6 +97,22 @@ def judge(scenario: Scenario, report: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def clearance_note(row: dict[str, Any]) -> str:
+    """A row's clearance in a few words for the progress line: the least away from doors,
+    and, when a limit is missed, which (a miss should show as the mission ends, not only in
+    the table at the end)."""
+    away = row.get("min_clearance_away_m")
+    note = "clearance -" if away is None else f"clearance {away:.3f} m"
+    if row.get("clearance_ok", True):
+        return note
+    missed = []
+    if away is not None and away < AWAY_CLEARANCE_M:
+        missed.append(f"under {AWAY_CLEARANCE_M:.2f} m away from doors")
+    if row.get("tight_doors"):
+        missed.append("tight in " + " ".join(row["tight_doors"]))
+    return f"{note}, BELOW A LIMIT: {'; '.join(missed)}"
+
+
 def phase_seconds(report: dict[str, Any]) -> dict[str, float]:
     """Sim seconds the mission spent in each phase of its tree (follow, correct, pass,
     ride...), summed over its phases of that name: what its time went on."""

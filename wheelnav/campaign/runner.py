@@ -25,7 +25,7 @@ from typing import Any, TextIO
 from shared import config as config_mod
 from shared.config import FleetConfig
 from shared.service import add_override_argument
-from wheelnav.campaign.results import ResultStore, judge
+from wheelnav.campaign.results import ResultStore, clearance_note, judge
 from wheelnav.campaign.summary import (
     figures,
     format_failures,
@@ -135,7 +135,8 @@ def run(spec: CampaignSpec, err: TextIO = sys.stderr, out: TextIO = sys.stdout) 
             )
             err.write(
                 f" {row['outcome']} ({'as expected' if row['as_expected'] else 'NOT as expected'}"
-                f", {row['sim_time_s']:.0f} s sim, {report['wall_time_s']:.0f} s wall; "
+                f", {clearance_note(row)}, {row['sim_time_s']:.0f} s sim, "
+                f"{report['wall_time_s']:.0f} s wall; "
                 f"elapsed {elapsed / 60:.1f} min, about {eta / 60:.0f} min to go)\n"
             )
         else:
