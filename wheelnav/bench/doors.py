@@ -15,6 +15,9 @@ Each start is run with each door procedure (``--procedures``: smooth and stop-tu
 side by side; a smooth run that shows a correct, turn or verify phase fell back to
 stop-turn-go and is counted so). ``--map-off-m``: the stack's map (and its door entry)
 places the door up to that far along the wall from where the simulator's world has it.
+``--set KEY=VALUE`` overrides a config value in every run (for example
+``launcher.in_process=true``: the same reports, faster); the door procedure is
+``--procedures``' to set.
 """
 
 from __future__ import annotations
@@ -31,7 +34,9 @@ from typing import Any, TextIO
 import numpy as np
 import yaml
 
-from shared.config import RobotConfig
+from shared import config as config_mod
+from shared.config import ConfigError, FleetConfig, RobotConfig
+from shared.service import add_override_argument
 from sim.sitegen import draw, write_map
 from wheelnav.campaign.results import door_requirement_m
 
@@ -203,11 +208,13 @@ def run_bench(
     procedures: tuple[str, ...] = PROCEDURES,
     map_off_m: float = 0.0,
     keep: Path | None = None,
+    overrides: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """Run every start for every width, kind and procedure (each start with each
     procedure); the mapped door ``map_off_m`` at most along its wall from where it is;
     progress on ``out``, with the command that replays a run that failed or fell back
-    (its scenario kept under ``keep``, else in a temporary folder that goes); the figures."""
+    (its scenario kept under ``keep``, else in a temporary folder that goes); every run
+    with the config ``overrides`` (KEY=VALUE); the figures."""
     from wheelnav.mission.run import MissionRun  # the fleet: only when running
     from wheelnav.mission.scenario import load_scenario
 
@@ -231,7 +238,8 @@ def run_bench(
                     for proc in procedures:
                         name = f"door_{width:.2f}_{kind}_{i}_{proc}"
                         scenario = _scenario(folder, name, seed + i, start, proc, bool(off))
-                        report = MissionRun(load_scenario(scenario), quiet=True).run()
+                        loaded = load_scenario(scenario, list(overrides))
+                        report = MissionRun(loaded, quiet=True).run()
                         row = measure(report, door_y, width, robot)
                         phases = {p["name"] for p in report.get("phases", [])}
                         row.update(
@@ -256,7 +264,22 @@ def run_bench(
                         "summary": summarise(runs[proc]),
                         "runs": runs[proc],
                     }
-    return {"seed": seed, "starts": starts, "map_off_m": map_off_m, "rows": rows}
+    return {
+        "seed": seed,
+        "starts": starts,
+        "map_off_m": map_off_m,
+        "overrides": list(overrides),
+        "rows": rows,
+    }
+
+
+def check_overrides(overrides: list[str]) -> None:
+    """Refuse an override the fleet config does not take, or one that would undo
+    ``--procedures`` (raises ConfigError naming the key)."""
+    for item in overrides:
+        if item.split("=", 1)[0].strip() == "navigator.door_procedure":
+            raise ConfigError("navigator.door_procedure: set it with --procedures, not --set")
+    config_mod.from_dict(FleetConfig, config_mod.apply_overrides({}, list(overrides)))
 
 
 def format_table(result: dict[str, Any]) -> str:
@@ -303,11 +326,16 @@ def main(argv: list[str] | None = None, out: TextIO = sys.stdout) -> int:
     )
     p.add_argument("--json", type=Path, help="write the runs and the table's figures here")
     p.add_argument("--keep", type=Path, help="keep every run's site and scenario in this folder")
+    add_override_argument(p)
     args = p.parse_args(argv)
     if args.starts < 1:
         p.error("--starts: must be at least 1")
     if not 0.0 <= args.map_off_m <= 1.0:
         p.error("--map-off-m: must be between 0 and 1 m")
+    try:
+        check_overrides(args.overrides)
+    except (ConfigError, ValueError) as e:
+        p.error(f"--set: {e}")
     result = run_bench(
         args.starts,
         args.seed,
@@ -317,6 +345,7 @@ def main(argv: list[str] | None = None, out: TextIO = sys.stdout) -> int:
         tuple(args.procedures),
         args.map_off_m,
         args.keep.resolve() if args.keep else None,
+        tuple(args.overrides),
     )
     print(format_table(result), file=out)
     if args.json:

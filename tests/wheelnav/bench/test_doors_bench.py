@@ -77,3 +77,16 @@ def test_each_run_names_its_procedure_and_gives_the_simulator_the_world(tmp_path
     assert (
         same.config.sim.world_site == "" and same.config.navigator.door_procedure == "stop_turn_go"
     )
+
+
+def test_overrides_are_checked_before_any_run_and_cannot_undo_the_procedure(capsys) -> None:
+    from shared.config import ConfigError
+    from wheelnav.bench.doors import check_overrides, main
+
+    check_overrides(["launcher.in_process=true"])
+    with pytest.raises(ConfigError, match="navigator.door_procedure"):
+        check_overrides(["navigator.door_procedure=smooth"])
+    with pytest.raises(SystemExit):
+        main(["--set", "launcher.no_such_key=1"])
+    err = capsys.readouterr().err
+    assert "--set" in err and "no_such_key" in err
