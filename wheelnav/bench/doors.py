@@ -80,6 +80,11 @@ def door_site(folder: Path, width: float, kind: str, door_y: float, swing: str) 
     return path
 
 
+def draw_door_y(rng: np.random.Generator, width: float) -> float:
+    """The door's centre along its wall: uniform, at least 2.5 m from the room's ends."""
+    return float(rng.uniform(2.5, ROOM[1] - 2.5))
+
+
 def footprint_corners(x: float, y: float, theta: float, robot: RobotConfig) -> np.ndarray:
     """The footprint's four corners (4, 2) at pose (x, y, theta)."""
     fp = robot.footprint
@@ -227,7 +232,7 @@ def run_bench(
             for kind in kinds:
                 runs: dict[str, list[dict]] = {proc: [] for proc in procedures}
                 for i in range(starts):
-                    door_y = float(rng.uniform(2.5, ROOM[1] - 2.5))
+                    door_y = draw_door_y(rng, width)
                     swing = str(rng.choice(["left", "right"]))  # left: into the approach room
                     off = float(rng.uniform(-map_off_m, map_off_m)) if map_off_m > 0 else 0.0
                     folder = Path(tmp) / f"{width:.2f}_{kind}_{i}"

@@ -90,3 +90,21 @@ def test_overrides_are_checked_before_any_run_and_cannot_undo_the_procedure(caps
         main(["--set", "launcher.no_such_key=1"])
     err = capsys.readouterr().err
     assert "--set" in err and "no_such_key" in err
+
+
+def test_the_drawn_door_entry_is_where_the_raster_has_its_gap(tmp_path) -> None:
+    """The simulator builds its walls from the map's cells: a door entry between cell
+    edges would stand up to half a cell off the gap the chair passes (a 0.90 m door drawn
+    at y 2.725 had its gap at 2.30-3.20 and a sliding leaf 2.5 cm into it)."""
+    from wheelnav.bench.doors import draw_door_y
+
+    rng = np.random.default_rng(5)
+    for i in range(12):
+        width = (0.8, 0.9, 1.0)[i % 3]
+        door_y = draw_door_y(rng, width)
+        (door,) = load_site(door_site(tmp_path / str(i), width, "sliding", door_y, "left")).doors
+        grid = load_site(tmp_path / str(i) / "site.yaml").floors["1"].map
+        occ = grid.occupied(True)
+        for edge, inward in ((door.p1[1], 1), (door.p2[1], -1)):
+            assert not occ[grid.to_cell(WALL_X, edge + inward * 0.01)], (door_y, edge)
+            assert occ[grid.to_cell(WALL_X, edge - inward * 0.01)], (door_y, edge)
