@@ -45,6 +45,7 @@ KINDS = ("hinged", "sliding")
 WALL_X = 8.0  # the door's wall: x from 7.9 to 8.1; the approach room is x < 7.9
 ROOM = (8.0, 8.0)  # the approach room's size (x, y); the room past the door is 5 m deep
 WALL_M = 0.2
+CELL_M = 0.05  # the drawn map's resolution (sim.sitegen.draw's default)
 START_M = (2.0, 7.0)  # the reference point's distance before the door plane
 KEEP_M = 0.1  # the footprint's least distance from a wall at the start
 GOAL_PAST_M = 2.5
@@ -81,8 +82,11 @@ def door_site(folder: Path, width: float, kind: str, door_y: float, swing: str) 
 
 
 def draw_door_y(rng: np.random.Generator, width: float) -> float:
-    """The door's centre along its wall: uniform, at least 2.5 m from the room's ends."""
-    return float(rng.uniform(2.5, ROOM[1] - 2.5))
+    """The door's centre along its wall: uniform, at least 2.5 m from the room's ends,
+    moved to where its jambs fall on the map's cell edges (the simulator builds its walls
+    from the cells, so the entry is where the gap is)."""
+    y = float(rng.uniform(2.5, ROOM[1] - 2.5))
+    return round(round((y - width / 2) / CELL_M) * CELL_M + width / 2, 6)
 
 
 def footprint_corners(x: float, y: float, theta: float, robot: RobotConfig) -> np.ndarray:
@@ -335,6 +339,9 @@ def main(argv: list[str] | None = None, out: TextIO = sys.stdout) -> int:
     args = p.parse_args(argv)
     if args.starts < 1:
         p.error("--starts: must be at least 1")
+    off_grid = [w for w in args.widths if abs(w / CELL_M - round(w / CELL_M)) > 1e-6]
+    if off_grid:
+        p.error(f"--widths: {off_grid} not a multiple of the map's {CELL_M} m cells")
     if not 0.0 <= args.map_off_m <= 1.0:
         p.error("--map-off-m: must be between 0 and 1 m")
     try:
