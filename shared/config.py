@@ -461,6 +461,10 @@ class DoorScanConfig:
     # sightings this near one another are one doorway (in a scan, and fused over scans)
     join_m: float = field(default=0.3, metadata=check(_positive))
     distinct_m: float = field(default=0.2, metadata=check(_positive))
+    # fused over scans, a sighting counts by 1 / range^2 (nearer than near_m: as at
+    # near_m): a jamb seen from afar is placed less well (beams spread, incidence grazes),
+    # and the latest, nearest sightings share the frame the chair now steers in
+    near_m: float = field(default=0.5, metadata=check(_positive))
 
     def __post_init__(self) -> None:
         if self.min_width_m > self.max_width_m:

@@ -390,12 +390,17 @@ class DoorTracker:
     """Fuses doorway sightings from scan after scan into door estimates on the map.
 
     A sighting joins the estimate whose face centre is within ``join_m`` and whose wall
-    runs the same way; the estimate is the mean of its sightings (jambs, thickness), and
-    its uncertainty the spread of their centres over the square root of their number.
+    runs the same way; the estimate is the mean of its sightings (jambs, thickness), each
+    weighted by 1 / range^2 from the sensor (at most as at ``near_m``): a far sighting
+    places a jamb less well, and the near ones are taken in the frame the chair steers in
+    now (with the mapped door off, localisation drifts a little as the chair nears it).
+    The uncertainty is the weighted spread of the centres over the square root of the
+    sightings' effective number.
     """
 
-    def __init__(self, join_m: float = DEFAULTS.join_m) -> None:
+    def __init__(self, join_m: float = DEFAULTS.join_m, near_m: float = DEFAULTS.near_m) -> None:
         self.join_m = join_m
+        self.near_m = near_m
         self._tracks: list[dict] = []
 
     def add(self, doorways: list[Doorway], pose: tuple[float, float, float]) -> None:
@@ -408,20 +413,27 @@ class DoorTracker:
             normal = rot @ w.normal
             track = self._match((left + right) / 2, right - left)
             if track is None:
-                track = {"normal": normal, "left": [], "right": [], "depth": []}
+                track = {"normal": normal, "left": [], "right": [], "weight": [], "depth": []}
                 self._tracks.append(track)
             n = track["normal"]
             if np.dot(right - left, [-n[1], n[0]]) < 0:
                 left, right = right, left  # the same jamb order in every sighting
             track["left"].append(left)
             track["right"].append(right)
+            track["weight"].append(1.0 / max(float(np.linalg.norm(w.centre)), self.near_m) ** 2)
             if w.depth is not None:
                 track["depth"].append(w.depth)
             track["open"] = w.open
 
+    @staticmethod
+    def _centre(track: dict) -> np.ndarray:
+        weights = track["weight"]
+        left = np.average(track["left"], axis=0, weights=weights)
+        return (left + np.average(track["right"], axis=0, weights=weights)) / 2
+
     def _match(self, centre: np.ndarray, span: np.ndarray) -> dict | None:
         for track in self._tracks:
-            c = (np.mean(track["left"], axis=0) + np.mean(track["right"], axis=0)) / 2
+            c = self._centre(track)
             n = track["normal"]
             along = abs(float(np.dot(span, [n[1], -n[0]]))) / max(np.linalg.norm(span), 1e-9)
             if np.linalg.norm(c - centre) <= self.join_m and along > math.cos(0.3):
@@ -432,7 +444,9 @@ class DoorTracker:
         """Every doorway seen so far, the most often seen first."""
         out = []
         for track in self._tracks:
-            left, right = np.mean(track["left"], axis=0), np.mean(track["right"], axis=0)
+            weights = np.array(track["weight"])
+            left = np.average(track["left"], axis=0, weights=weights)
+            right = np.average(track["right"], axis=0, weights=weights)
             span = right - left
             width = float(np.linalg.norm(span))
             direction = span / max(width, 1e-9)
@@ -443,8 +457,9 @@ class DoorTracker:
             centre = (left + right) / 2 + (0.0 if depth is None else depth / 2) * normal
             centres = (np.array(track["left"]) + np.array(track["right"])) / 2
             n = len(centres)
-            spread = float(np.sqrt(np.mean(np.sum((centres - centres.mean(axis=0)) ** 2, 1))))
-            sigma = spread / math.sqrt(n)
+            off = np.sum((centres - (left + right) / 2) ** 2, 1)
+            spread = float(np.sqrt(np.average(off, weights=weights)))
+            sigma = spread / math.sqrt(weights.sum() ** 2 / np.sum(weights**2))
             out.append(
                 DoorEstimate(centre, width, direction, normal, depth, n, sigma, track["open"])
             )

@@ -67,7 +67,7 @@ class SmoothPass:
         self.scan_cfg = scan or DoorScanConfig()
         self.mapped = np.array(door_centre, dtype=float)
         self.normal = np.array([math.cos(door_normal), math.sin(door_normal)])
-        self.tracker = DoorTracker(self.scan_cfg.join_m)
+        self.tracker = DoorTracker(self.scan_cfg.join_m, self.scan_cfg.near_m)
         self.centre = self.mapped.copy()  # the mapped door until the scan shows it
         self.width = self.settings.door_width  # as the scan shows it, once it does
         self.seen = 0  # sightings fused into the estimate used

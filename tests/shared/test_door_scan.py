@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from shared.config import ConfigError, DoorScanConfig, FleetConfig, from_dict
-from shared.door_scan import find_doorways, planar_scan, segment
+from shared.door_scan import DoorTracker, Doorway, find_doorways, planar_scan, segment
 
 
 def _cast(
@@ -61,3 +61,34 @@ def test_the_finder_reads_its_config() -> None:
         from_dict(FleetConfig, {"controller": {"door_scan": {"min_width_m": 2.0}}})
     with pytest.raises(ConfigError, match="controller.door_scan.split_m"):
         from_dict(FleetConfig, {"controller": {"door_scan": {"split_m": -1}}})
+
+
+def _sighting(centre_y: float, range_m: float) -> tuple[Doorway, tuple[float, float, float]]:
+    """A 0.9 m doorway on the wall x = 5 centred at ``centre_y``, seen from ``range_m``
+    before it (the sensor on the door's line, facing it)."""
+    half = np.array([0.0, 0.45])
+    centre = np.array([range_m, 0.0])
+    door = Doorway(
+        centre - half, centre + half, centre, 0.9, np.array([0.0, 1.0]), np.array([1.0, 0.0])
+    )
+    return door, (5.0 - range_m, centre_y, 0.0)
+
+
+def test_near_sightings_count_more_than_far_ones() -> None:
+    """Twenty sightings from 4 m, 3 cm off (far: beams spread, another frame), then five
+    from 1 m on the door: the fused door is 6 mm off (weights 20 / 16 against 5; the plain
+    mean is 2.4 cm off); the weight stops growing at near_m."""
+    tracker = DoorTracker()
+    for _ in range(20):
+        door, pose = _sighting(0.03, 4.0)
+        tracker.add([door], pose)
+    for _ in range(5):
+        door, pose = _sighting(0.0, 1.0)
+        tracker.add([door], pose)
+    (est,) = tracker.estimates()
+    assert est.sightings == 25 and est.centre[1] == pytest.approx(0.006)
+    assert est.width == pytest.approx(0.9) and est.sigma_m > 0
+    equal = DoorTracker(near_m=5.0)  # every sighting nearer than 5 m weighs the same
+    for y, r in [(0.03, 4.0)] * 20 + [(0.0, 1.0)] * 5:
+        equal.add([_sighting(y, r)[0]], _sighting(y, r)[1])
+    assert equal.estimates()[0].centre[1] == pytest.approx(0.024)
