@@ -181,6 +181,13 @@ PROCEDURES = ("smooth", "stop_turn_go")
 SLOW_PHASES = ("correct", "turn", "verify")  # a smooth pass that shows these fell back
 
 
+def fell_back(report: dict) -> bool:
+    """True if the door's own phases (its checkpoint's, not a recovery's turn on the way
+    to it) show a stop-turn-go step."""
+    door = next((c for c in report.get("checkpoints", []) if c.get("id") == "door"), {})
+    return bool(set(door.get("phases") or {}) & set(SLOW_PHASES))
+
+
 def _scenario(
     folder: Path,
     name: str,
@@ -250,12 +257,11 @@ def run_bench(
                         loaded = load_scenario(scenario, list(overrides))
                         report = MissionRun(loaded, quiet=True).run()
                         row = measure(report, door_y, width, robot)
-                        phases = {p["name"] for p in report.get("phases", [])}
                         row.update(
                             start=[round(v, 3) for v in start],
                             swing=swing,
                             map_off_m=round(off, 3),
-                            fell_back=proc == "smooth" and bool(phases & set(SLOW_PHASES)),
+                            fell_back=proc == "smooth" and fell_back(report),
                         )
                         runs[proc].append(row)
                         print(

@@ -108,3 +108,16 @@ def test_the_drawn_door_entry_is_where_the_raster_has_its_gap(tmp_path) -> None:
         for edge, inward in ((door.p1[1], 1), (door.p2[1], -1)):
             assert not occ[grid.to_cell(WALL_X, edge + inward * 0.01)], (door_y, edge)
             assert occ[grid.to_cell(WALL_X, edge - inward * 0.01)], (door_y, edge)
+
+
+def test_a_fallback_is_read_from_the_door_s_own_phases() -> None:
+    """A recovery's turn on the way to the door (a start in a corner) is no fallback; a
+    correct phase at the door is (reports of bench runs 0.90 hinged 0 and 0.80 hinged 9)."""
+    from wheelnav.bench.doors import fell_back
+
+    recovered = {
+        "phases": [{"name": "recover"}, {"name": "turn"}, {"name": "pass"}],
+        "checkpoints": [{"kind": "door", "id": "door", "phases": {"pass": 13.5}}],
+    }
+    stopped = {"checkpoints": [{"id": "door", "phases": {"pass": 15.3, "correct": 23.2}}]}
+    assert not fell_back(recovered) and fell_back(stopped) and not fell_back({})
