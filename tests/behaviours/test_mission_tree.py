@@ -766,6 +766,26 @@ def test_a_door_seen_open_from_the_leg_is_passed_without_stopping() -> None:
     assert not any(p.dock_heading is not None for p in fleet.sent)  # no Phase 0 nor 1
 
 
+def test_the_leg_hands_over_only_once_the_chair_faces_the_door() -> None:
+    """Door bench 0.80 hinged start 10: the first leg was shorter than smooth_handover_m
+    and the chair faced 107 deg off the door; the smooth pass, sent at once, had no curve
+    and fell back to stop-turn-go (43 s instead of about 20). The leg keeps turning the
+    chair until it faces within navigator.smooth_handover_deg of the door's heading."""
+    blackboard()
+    fleet = ScriptedFleet(None)
+    fleet.doors["d1"] = DoorMode.OPEN
+    tree = route_tree(route(SMOOTH_DOOR), fleet, door_procedure="smooth")
+    tree.tick()
+    fleet.th = math.radians(107)  # facing away: the leg goes on
+    _following(fleet, 0.9)
+    tree.tick()
+    assert fleet.sent[-1].path_id == "r.0" and fleet.stops == 0
+    fleet.th = math.radians(50)  # turned towards the door: hand over, moving
+    _following(fleet, 0.8)
+    tree.tick()
+    assert fleet.sent[-1].door and fleet.stops == 0
+
+
 def _handed_over(
     door_mode: DoorMode, x: float = 0.0
 ) -> tuple[ScriptedFleet, py_trees.trees.BehaviourTree]:
