@@ -743,7 +743,14 @@ def create_route_tree(
             smooth = cp is not None and _smooth(cp, nav, docked)
             handover = nav.smooth_handover_m if smooth else 0.0
             reach = nav.correction_reach_m if cp is not None else 0.0
-            follow = FollowPath(leg, f"Follow leg {i}", handover_m=handover, dock_within_m=reach)
+            follow = FollowPath(
+                leg,
+                f"Follow leg {i}",
+                handover_m=handover,
+                dock_within_m=reach,
+                handover_heading=cp.approach.theta if smooth else None,
+                handover_rad=math.radians(nav.smooth_handover_deg),
+            )
             step = Timeout(f"Leg {i}", follow, nav.follow_timeout_s, clock, record)
             if cp is None and after_door and _leg_length(leg) < nav.correction_reach_m:
                 step = _last_leg(leg, i, step, nav, clock, record)

@@ -27,7 +27,9 @@ class FollowPath(FleetBehaviour):
 
     RUNNING while the controller follows; SUCCESS on ``arrived`` for this path, or with
     ``handover_m`` > 0 once that little is left (the chair still moving: the next step
-    sends its own path at once, as a smooth door pass does). A controller
+    sends its own path at once, as a smooth door pass does) and, where a
+    ``handover_heading`` is given, the chair faces within ``handover_rad`` of it (a smooth
+    pass from a chair facing away has no curve onto the door's line). A controller
     that reports ``idle`` without this path (it was restarted) gets the path again. Never
     FAILURE itself: the timeout above it bounds the wait. ``terminate`` on pre-emption
     stops the chair.
@@ -49,12 +51,16 @@ class FollowPath(FleetBehaviour):
         phase: Phase = Phase.FOLLOW,
         handover_m: float = 0.0,
         dock_within_m: float = 0.0,
+        handover_heading: float | None = None,
+        handover_rad: float = math.pi,
     ) -> None:
         super().__init__(name or f"Follow {path.path_id}")
         self.path = path
         self.phase = phase
         self.handover_m = handover_m
         self.dock_within_m = dock_within_m
+        self.handover_heading = handover_heading
+        self.handover_rad = handover_rad
         self.path_id = path.path_id
         self.sent_at = 0.0
         self.to_go = math.inf  # the controller's last distance to go on this path
@@ -91,8 +97,21 @@ class FollowPath(FleetBehaviour):
             f"{status.state}: {100 * status.progress:.0f} %, {status.distance_to_goal:.2f} m to go"
         )
         if status.state == "following" and status.distance_to_goal <= self.handover_m:
-            return True  # the next step takes over at speed (a smooth door pass)
+            if self._facing():
+                return True  # the next step takes over at speed (a smooth door pass)
+            self.feedback_message += ": turning to face the door before handing over"
         return status.state == "arrived"
+
+    def _facing(self) -> bool:
+        """True if the chair faces within ``handover_rad`` of ``handover_heading`` (or
+        there is none to face)."""
+        if self.handover_heading is None:
+            return True
+        est = self.fleet.pose()
+        if est is None:
+            return False
+        off = est.pose.theta - self.handover_heading
+        return abs(math.atan2(math.sin(off), math.cos(off))) <= self.handover_rad
 
     def handed_m(self) -> float:
         """How much of the path this step left to the next when it was held (0: none)."""

@@ -594,6 +594,9 @@ class NavigatorConfig:
     # door must be seen open (building and LiDAR) before the chair's front is
     # smooth_commit_m before the door plane, or the chair stops and does stop-turn-go
     smooth_handover_m: float = field(default=1.5, metadata=check(_non_negative))
+    # ... and only once the chair faces within this of the door's heading (facing away
+    # there is no curve onto the door's line: the leg goes on turning the chair)
+    smooth_handover_deg: float = field(default=60.0, metadata=check(_positive))
     smooth_commit_m: float = field(default=0.5, metadata=check(_non_negative))
     # smooth: held by the controller's safety stop this long before the door plane (the
     # curve swung a corner at an open leaf), the pass gives up for stop-turn-go at once
