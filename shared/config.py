@@ -586,9 +586,9 @@ class NavigatorConfig:
     # and a door step waits and times out as when nobody answers (docs/building-bridge.md)
     building_state_max_age_s: float = field(default=5.0, metadata=check(_positive))
     # how a door is passed: "stop_turn_go" (the seed's: correct, turn, verify, pass) or
-    # "smooth" (issue 14: a door seen open from the leg before it is passed without
-    # stopping, on a Bézier onto the door the scan shows; stop-turn-go stays its fallback
-    # and the way for a closed door, an automatic or a powered one)
+    # "smooth" (issue 14: a manual door seen open from the leg before it is passed
+    # without stopping, on a Bézier onto the door the scan shows; stop-turn-go stays its
+    # fallback and the way for a closed door, an automatic or a powered one)
     door_procedure: str = field(default="stop_turn_go", metadata=_one_of("stop_turn_go", "smooth"))
     # smooth: the leg before the door hands over this far before its end, at speed; the
     # door must be seen open (building and LiDAR) before the chair's front is
