@@ -544,6 +544,9 @@ class ControllerConfig:
     smooth_doorway_speed: float = field(default=0.2, metadata=check(_positive))
     smooth_zone_m: float = field(default=0.3, metadata=check(_non_negative))
     smooth_decel: float = field(default=0.3, metadata=check(_positive))
+    # a smooth pass turns at most at robot.max_turn_rate, and slowly enough to stop turning
+    # at this (rad/s^2; under the chair's max_turn_accel: the motors lag) by a bend's end
+    smooth_turn_accel: float = field(default=1.0, metadata=check(_positive))
     mpc: MPCConfig = field(default_factory=MPCConfig)
     door_scan: DoorScanConfig = field(default_factory=DoorScanConfig)
 

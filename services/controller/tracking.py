@@ -156,6 +156,8 @@ class Tracker:
                 doorway_speed=cfg.smooth_doorway_speed,
                 zone_m=cfg.smooth_zone_m,
                 decel=cfg.smooth_decel,
+                max_turn_rate=self.robot.max_turn_rate,
+                turn_accel=cfg.smooth_turn_accel,
             )
             self.smooth = SmoothPass((cx, cy), heading, settings, cfg.door_scan)
             self._precise = True
