@@ -321,7 +321,7 @@ class SmoothDoorPass(FleetBehaviour):
     def _out(self, to_go: float) -> bool:
         """True once the chair's rear is ``commit_m`` past the door plane (``to_go`` of the
         pass left): the next leg takes over at speed, as the leg before handed over."""
-        through = self.path.door[5] if len(self.path.door) == 6 else 0.0
+        through = self.path.door[5] if len(self.path.door) >= 6 else 0.0
         return to_go <= through - self.rear_m - self.commit_m
 
     def _give_up(self, why: str) -> Status:

@@ -516,6 +516,9 @@ def _smooth_pass(cp, route_id: str, p: EntryParams) -> SmoothDoorPass:
     n = (math.cos(a.theta), math.sin(a.theta))
     lead = max(0.0, (c.x - a.x) * n[0] + (c.y - a.y) * n[1])
     through = max(0.1, (e.x - c.x) * n[0] + (e.y - c.y) * n[1])
+    # beside a leaf open beyond the door, the planned line (the free opening's middle) to
+    # the left of the door's middle, facing through: the scan shows the jamb-to-jamb middle
+    offset = (a.y - c.y) * n[0] - (a.x - c.x) * n[1] if cp.leaf_away else 0.0
     path = Path(
         0.0,
         f"{route_id}.smooth.{cp.id}",
@@ -523,7 +526,7 @@ def _smooth_pass(cp, route_id: str, p: EntryParams) -> SmoothDoorPass:
         np.array([[a.x, a.y], [e.x, e.y]]),
         np.array([p.cruise_speed, 0.0]),
         precise=True,
-        door=[c.x, c.y, a.theta, cp.width_m, lead, through],
+        door=[c.x, c.y, a.theta, cp.width_m, lead, through, offset],
     )
     return SmoothDoorPass(
         cp.id,

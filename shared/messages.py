@@ -183,9 +183,12 @@ class Path(Msg):
     ``keep_out``: segments (x1, y1, x2, y2) a docking manoeuvre counts as walls: the
     doorway of the door it docks before, which it must not turn in nor go through.
     ``door``: set, the path is a smooth pass through a door, [x, y, heading, width_m,
-    lead_m, through_m]: the mapped door centre, the heading through it, its width, where
-    the curve joins the centre line (``lead_m`` before the plane) and where the pass ends
-    (``through_m`` past it); the controller steers onto the door it sees in the scan
+    lead_m, through_m] and optionally offset_m: the mapped door centre, the heading
+    through it, its width, where the curve joins the centre line (``lead_m`` before the
+    plane) and where the pass ends (``through_m`` past it), and how far to the left of the
+    doorway's middle (facing through it) the pass runs (a hinged leaf standing open beyond
+    the door takes part of the opening the scan does not show; 0 if absent); the
+    controller steers onto the door it sees in the scan
     (services/controller/smooth_pass.py), at up to ``v_ref[0]``; the waypoints are the
     pass as planned (approach to exit pose).
     """
@@ -206,10 +209,15 @@ class Path(Msg):
 
     def validate(self) -> None:
         n = len(self.waypoints)
-        if self.door and (len(self.door) != 6 or not all(math.isfinite(v) for v in self.door)):
+        if self.door and (
+            len(self.door) not in (6, 7) or not all(math.isfinite(v) for v in self.door)
+        ):
             raise Invalid(
-                "door", f"{len(self.door)} value(s): [x, y, heading, width, lead, through]"
+                "door",
+                f"{len(self.door)} value(s): [x, y, heading, width, lead, through(, offset)]",
             )
+        if len(self.door) == 7 and abs(self.door[6]) > self.door[3] / 2:
+            raise Invalid("door", "offset must be within half the door's width")
         if self.door and (self.door[3] < 0 or self.door[4] < 0 or self.door[5] <= 0):
             raise Invalid("door", "width and lead must be >= 0, through > 0 (metres)")
         if self.door and n == 0:
@@ -462,6 +470,9 @@ class Checkpoint(Msg):
     # chair and the space before it is too shallow to wait behind it): a powered door is
     # asked to open before the chair comes into that space
     in_sweep: bool = False
+    # a hinged leaf stands open beyond the door (it swings away from the chair): the
+    # doorway a scan shows runs jamb to jamb, the free opening is beside the leaf
+    leaf_away: bool = False
 
 
 @message("route_reply", version=3)

@@ -51,6 +51,7 @@ class PassSettings:
     doorway_speed: float = 0.2
     zone_m: float = 0.3
     decel: float = 0.3
+    offset_m: float = 0.0  # the line this far left of the doorway's middle (facing through)
     max_turn_rate: float = 1.0  # the chair's (robot.max_turn_rate)
     turn_accel: float = 1.0  # the turn is slowed to a stop at this as the bend runs out
 
@@ -156,7 +157,8 @@ class SmoothPass:
         along = min(
             max(-(s.lead_m + s.lookahead_m), past + s.lookahead_m), s.through_m + s.lookahead_m
         )
-        goal = self.centre + along * self.normal
+        left = np.array([-self.normal[1], self.normal[0]])
+        goal = self.centre + s.offset_m * left + along * self.normal
         curve = door_curve(pose, (float(goal[0]), float(goal[1]), heading))
         if curve is None:
             return 0.0, 0.0, FALLBACK

@@ -139,7 +139,8 @@ class Tracker:
         self._precise = precise
         self.smooth = None
         if door and len(waypoints) > 0:
-            cx, cy, heading, width, lead, through = door
+            cx, cy, heading, width, lead, through = door[:6]
+            offset = door[6] if len(door) > 6 else 0.0
             speed = float(v_ref[0]) if len(v_ref) and v_ref[0] > 0 else MIN_SMOOTH_SPEED
             cfg, fp = self.cfg, self.robot.footprint
             settings = PassSettings(
@@ -158,6 +159,7 @@ class Tracker:
                 decel=cfg.smooth_decel,
                 max_turn_rate=self.robot.max_turn_rate,
                 turn_accel=cfg.smooth_turn_accel,
+                offset_m=offset,
             )
             self.smooth = SmoothPass((cx, cy), heading, settings, cfg.door_scan)
             self._precise = True

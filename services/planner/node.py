@@ -59,6 +59,7 @@ def _checkpoint(c: Checkpoint) -> m.Checkpoint:
         m.Pose2D(c.centre[0], c.centre[1], c.approach[2], c.floor),
         c.controller,
         c.in_sweep,
+        c.leaf_away,
     )
 
 

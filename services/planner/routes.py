@@ -61,6 +61,7 @@ class Checkpoint:
     centre: tuple[float, float] = (0.0, 0.0)  # the door's (or car door's) middle
     controller: bool = True  # the building reports the door's state (else: LiDAR alone)
     in_sweep: bool = False  # the approach pose lies in the sweep of a leaf opening towards it
+    leaf_away: bool = False  # a hinged leaf stands open beyond the door (swings away)
 
 
 @dataclass
@@ -404,6 +405,7 @@ class RoutePlanner:
             centre=(float(centre[0]), float(centre[1])),
             controller=door.controller,
             in_sweep=in_sweep,
+            leaf_away=door.motion == "hinged" and not towards_chair,
         )
 
     def _free_point(

@@ -754,7 +754,7 @@ def test_a_door_seen_open_from_the_leg_is_passed_without_stopping() -> None:
     fleet.x = 0.2
     tree.tick()
     smooth = fleet.sent[-1]
-    assert smooth.door == pytest.approx([2.2, 0.0, 0.0, 1.0, 1.2, 1.0]) and smooth.precise
+    assert smooth.door == pytest.approx([2.2, 0.0, 0.0, 1.0, 1.2, 1.0, 0.0]) and smooth.precise
     assert fleet.stops == 0  # no stop between the leg and the pass
     for _ in range(3):  # the door open by the building and by the LiDAR in 3 scans
         _following(fleet, 1.5)
@@ -764,6 +764,23 @@ def test_a_door_seen_open_from_the_leg_is_passed_without_stopping() -> None:
     tree.tick()
     assert fleet.sent[-1].path_id == "r.1" and fleet.stops == 0
     assert not any(p.dock_heading is not None for p in fleet.sent)  # no Phase 0 nor 1
+
+
+def test_beside_a_leaf_swung_away_the_pass_runs_on_the_planned_line() -> None:
+    """A leaf open beyond the door: the planner's line (the free opening's middle) is
+    1.25 cm left of the door's middle, facing through; the pass is sent that offset (the
+    scan shows the jamb-to-jamb middle). Not for a leaf swung towards the chair, whose
+    face the scan takes for the jamb."""
+    for leaf_away, offset in ((True, 0.0125), (False, 0.0)):
+        blackboard()
+        fleet = ScriptedFleet(None)
+        fleet.doors["d1"] = DoorMode.OPEN
+        cp = replace(SMOOTH_DOOR, approach=Pose2D(1, 0.0125, 0, "1"), leaf_away=leaf_away)
+        tree = route_tree(route(cp), fleet, door_procedure="smooth")
+        tree.tick()
+        _following(fleet, 0.9)
+        tree.tick()
+        assert fleet.sent[-1].door[6] == pytest.approx(offset)
 
 
 def test_the_leg_hands_over_only_once_the_chair_faces_the_door() -> None:

@@ -66,7 +66,12 @@ CASES = {
     "path: a door pass with 5 values": (
         broken(path(), door=[6.2, 2.7, 0.0, 1.0, 1.0]),
         m.Path,
-        "path.door: 5 value(s): [x, y, heading, width, lead, through]",
+        "path.door: 5 value(s): [x, y, heading, width, lead, through(, offset)]",
+    ),
+    "path: a door pass whose offset leaves the doorway": (
+        broken(path(), door=[6.2, 2.7, 0.0, 1.0, 1.0, 1.0, 0.6]),
+        m.Path,
+        "path.door: offset must be within half the door's width",
     ),
     "path: a door pass ending before the plane": (
         broken(path(), door=[6.2, 2.7, 0.0, 1.0, 1.0, 0.0]),

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from services.controller.smooth_pass import FALLBACK, RUNNING, THROUGH, SmoothPass
+from services.controller.smooth_pass import FALLBACK, RUNNING, THROUGH, PassSettings, SmoothPass
 from shared.config import RobotConfig
 from tests.sim.test_simulation import make
 
@@ -94,3 +94,14 @@ def test_a_tight_curve_keeps_to_the_turn_rate_and_does_not_swing_past_the_line()
     assert run["max_w"] <= robot.max_turn_rate + 1e-9
     assert run["overshoot_deg"] <= 5.0
     assert run["clearance"] >= (1.0 - 0.65) / 2 - 0.03
+
+
+def test_the_pass_runs_its_offset_left_of_the_doorway_s_middle() -> None:
+    """Path.door's 7th value: the line beside a leaf standing open beyond the door (the
+    free opening's middle) is that far left of the doorway's middle, facing through."""
+    on_middle = SmoothPass((6.2, 2.7), 0.0)
+    beside = SmoothPass((6.2, 2.7), 0.0, PassSettings(offset_m=0.02))
+    pose = (4.0, 2.7, 0.0)
+    assert on_middle.step(pose, None)[1] == 0.0
+    assert beside.step(pose, None)[1] > 0.0  # turning left, onto y = 2.72
+    assert beside.step((4.0, 2.72, 0.0), None)[1] == 0.0

@@ -264,3 +264,20 @@ def test_a_chair_waits_behind_a_manual_leaf_where_that_has_more_room_than_beside
     behind = 5.0 - (fp.front + 0.8 + 0.25)  # the pose behind the leaf's sweep
     assert not cp.in_sweep
     assert cp.approach[0] == pytest.approx(behind, abs=0.06)
+
+
+def test_a_leaf_swung_away_from_the_chair_is_said_so(tmp_path: Path) -> None:
+    """A hinged leaf swinging left of p1 -> p2 (here: into x < 5) opens towards a chair
+    coming from x > 5 and away from one coming from x < 5; the smooth pass runs on the
+    free opening's middle beside a leaf that stands beyond the door (campaign b8900.m01
+    with smooth: 4.8 cm from such a leaf on the door's middle line, 5 cm asked)."""
+    t = 0.2
+    walls = [(0, 0, 10, t), (0, 5 - t, 10, 5), (0, 0, t, 5), (10 - t, 0, 10, 5), (4.9, 0, 5.1, 5)]
+    gaps = [(4.9, 2.0, 5.1, 3.0)]
+    keys = {"d": {"motion": "hinged", "swing": "left"}}
+    site = make_site(tmp_path, walls, gaps, [("d", (5.0, 2.0), (5.0, 3.0))], (10, 5), keys)
+    routes = routes_for(site)
+    (towards,) = routes.route((1.0, 2.5), "1", (8.5, 2.5), "1").checkpoints
+    (away,) = routes.route((8.5, 2.5), "1", (1.0, 2.5), "1").checkpoints
+    assert not towards.leaf_away and away.leaf_away
+    assert away.approach[1] == pytest.approx(2.5 + 0.05 / 4)  # on the free opening's middle
