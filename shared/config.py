@@ -588,11 +588,12 @@ class NavigatorConfig:
     # (building.state_rate_hz), so a silent building (a cut link) leaves no OPEN behind
     # and a door step waits and times out as when nobody answers (docs/building-bridge.md)
     building_state_max_age_s: float = field(default=5.0, metadata=check(_positive))
-    # how a door is passed: "stop_turn_go" (the seed's: correct, turn, verify, pass) or
-    # "smooth" (issue 14: a manual door seen open from the leg before it is passed
-    # without stopping, on a Bézier onto the door the scan shows; stop-turn-go stays its
-    # fallback and the way for a closed door, an automatic or a powered one)
-    door_procedure: str = field(default="stop_turn_go", metadata=_one_of("stop_turn_go", "smooth"))
+    # how a door is passed: "smooth" (issue 14: a manual door seen open from the leg
+    # before it is passed without stopping, on a Bézier onto the door the scan shows;
+    # stop-turn-go stays its fallback and the way for a closed door, an automatic or a
+    # powered one) or "stop_turn_go" (the seed's: correct, turn, verify, pass at every
+    # door, for comparison)
+    door_procedure: str = field(default="smooth", metadata=_one_of("stop_turn_go", "smooth"))
     # smooth: the leg before the door hands over this far before its end, at speed; the
     # door must be seen open (building and LiDAR) before the chair's front is
     # smooth_commit_m before the door plane, or the chair stops and does stop-turn-go

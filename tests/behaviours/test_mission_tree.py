@@ -853,7 +853,7 @@ def test_a_smooth_pass_held_by_the_safety_stop_hands_over_to_stop_turn_go() -> N
 
 def test_stop_turn_go_stays_for_automatic_doors_and_where_configured() -> None:
     automatic = replace(SMOOTH_DOOR, door_type="automatic")
-    for cp, nav in ((automatic, "smooth"), (SMOOTH_DOOR, "stop_turn_go"), (SMOOTH_DOOR, None)):
+    for cp, nav in ((automatic, None), (SMOOTH_DOOR, "stop_turn_go")):
         blackboard()
         fleet = ScriptedFleet(None)
         kwargs = {"door_procedure": nav} if nav else {}

@@ -50,9 +50,11 @@ def test_a_door_without_a_controller_is_verified_by_lidar_and_passed(fleet) -> N
         steps = {(s.phase, s.action) for s in heard.seen["status"] if isinstance(s, NavStatus)}
     assert not states, states[:3]  # the building knows nothing of this door
     assert not requests, requests[:3]  # and the navigator asks it for nothing
-    # the door's steps ran (it was not skipped as a mere gap): verified, then passed
+    # the door's steps ran (it was not skipped as a mere gap): the smooth pass (the
+    # default procedure) verified it open by LiDAR alone as the chair closed in, in time:
+    # a door not seen open would have fallen back to stop-turn-go (correct, turn, verify)
     door_phases = {phase for phase, action in steps if DOOR in action}
-    assert {"verify", "pass"} <= door_phases, sorted(steps)
+    assert door_phases == {"pass"}, sorted(steps)
     # the chair drove through: it ended in room B, beyond the door's line (x 6.2)
     with heard.lock:
         end = heard.seen["truth"][-1].pose
