@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
+import numba
 import numpy as np
 
 from shared.config import DoorScanConfig
@@ -45,7 +47,7 @@ class Stretch:
     rms: float
     count: int
 
-    @property
+    @cached_property
     def length(self) -> float:
         return float(np.linalg.norm(self.b - self.a))
 
@@ -77,22 +79,46 @@ def planar_scan(
 ) -> np.ndarray:
     """(M, 2) returns ordered by azimuth: the nearest per ``bin_deg`` bin of the points
     (N, 2 or 3; sensor frame) within ``band_m`` of the sensor's height."""
-    pts = np.asarray(points, dtype=float)
+    pts = np.asarray(points)
     if pts.ndim != 2 or pts.shape[1] < 2:
         raise ValueError(f"points must be (N, 2) or (N, 3), got shape {pts.shape}")
-    if pts.shape[1] > 2:
-        pts = pts[np.abs(pts[:, 2]) < band_m]
-    xy = pts[:, :2]
-    xy = xy[np.isfinite(xy).all(axis=1)]
-    r = np.hypot(xy[:, 0], xy[:, 1])
-    xy, r = xy[r > 1e-6], r[r > 1e-6]
-    if len(xy) == 0:
-        return np.zeros((0, 2))
-    bins = np.floor((np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) + 180.0) / bin_deg).astype(int)
-    order = np.lexsort((r, bins))  # by bin, nearest first
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = bins[order][1:] != bins[order][:-1]
-    return xy[order[first]]
+    if pts.dtype != np.float32:
+        pts = pts.astype(np.float64, copy=False)
+    n_bins = int(math.floor(360.0 / bin_deg)) + 2  # azimuth +180 deg has a bin of its own
+    keep = _nearest_per_bin(pts, float(band_m), float(bin_deg), n_bins)
+    return pts[keep, :2].astype(np.float64)
+
+
+def warm_up() -> None:
+    """Compile (or load) the binning kernel now, for float32 clouds (the LiDAR's) and
+    float64 points, not in the first cycle that looks for a doorway: in lockstep the
+    compile would hold a tick, on wall time a control cycle."""
+    for dtype in (np.float32, np.float64):
+        planar_scan(np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], dtype=dtype))
+
+
+@numba.njit(cache=True)
+def _nearest_per_bin(pts: np.ndarray, band_m: float, bin_deg: float, n_bins: int) -> np.ndarray:
+    """Indices of the nearest finite return per azimuth bin (the first of equals), bins in
+    order: one pass over a VLP-16 cloud (25,000 points) instead of a sort of them."""
+    best_r = np.full(n_bins, np.inf)
+    best_i = np.full(n_bins, -1, dtype=np.int64)
+    has_z = pts.shape[1] > 2
+    for i in range(pts.shape[0]):
+        if has_z and not abs(np.float64(pts[i, 2])) < band_m:
+            continue
+        x, y = np.float64(pts[i, 0]), np.float64(pts[i, 1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            continue
+        r = math.hypot(x, y)
+        if not r > 1e-6:
+            continue
+        b = int(math.floor((math.degrees(math.atan2(y, x)) + 180.0) / bin_deg))
+        b = min(max(b, 0), n_bins - 1)
+        if r < best_r[b]:
+            best_r[b] = r
+            best_i[b] = i
+    return best_i[best_i >= 0]
 
 
 def _breaks(xy: np.ndarray, cfg: DoorScanConfig) -> list[np.ndarray]:

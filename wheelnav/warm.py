@@ -27,6 +27,8 @@ from typing import TextIO
 # list against the sources' ``cache=True``)
 MODULES = (
     "shared.geometry",
+    "shared.door_scan",
+    "services.controller.door_bezier",
     "services.controller.edt",
     "services.controller.manoeuvre",
     "services.planner.grid_astar",

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 SAMPLES = 64  # points along the curve for its curvature and for the path
@@ -61,6 +62,47 @@ def _curvature(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
     cross = d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]
     speed = np.maximum(np.hypot(d1[..., 0], d1[..., 1]), 1e-9)
     return cross / speed**3
+
+
+def warm_up() -> None:
+    """Compile (or load) the search kernel now, not in a door pass's first cycle."""
+    door_curve((0.0, 0.0, 0.0), (1.0, 1.0, math.pi / 2))
+
+
+@numba.njit(cache=True)
+def _search_costs(ctrl: np.ndarray, t: np.ndarray, one_way: bool) -> np.ndarray:
+    """Per candidate (N, 4, 2 control points): the integral of the squared derivative of
+    curvature over the samples ``t`` (inf where ``one_way`` and it bends both ways). One
+    pass per candidate, as ``_bezier`` and ``_curvature`` compute it, without the (N, S)
+    temporaries: the search is re-run every control cycle of a pass."""
+    n, m = ctrl.shape[0], t.shape[0]
+    out = np.empty(n)
+    k = np.empty(m)
+    ds = np.empty(m)
+    for i in range(n):
+        p0x, p0y, p1x, p1y = ctrl[i, 0, 0], ctrl[i, 0, 1], ctrl[i, 1, 0], ctrl[i, 1, 1]
+        p2x, p2y, p3x, p3y = ctrl[i, 2, 0], ctrl[i, 2, 1], ctrl[i, 3, 0], ctrl[i, 3, 1]
+        left = right = True
+        for j in range(m):
+            tt = t[j]
+            u = 1 - tt
+            a, b, c = 3 * u * u, 6 * u * tt, 3 * tt * tt
+            d1x = a * (p1x - p0x) + b * (p2x - p1x) + c * (p3x - p2x)
+            d1y = a * (p1y - p0y) + b * (p2y - p1y) + c * (p3y - p2y)
+            d2x = 6 * u * (p2x - 2 * p1x + p0x) + 6 * tt * (p3x - 2 * p2x + p1x)
+            d2y = 6 * u * (p2y - 2 * p1y + p0y) + 6 * tt * (p3y - 2 * p2y + p1y)
+            speed = math.hypot(d1x, d1y)
+            ds[j] = speed / (m - 1)
+            sg = max(speed, 1e-9)
+            k[j] = (d1x * d2y - d1y * d2x) / (sg * sg * sg)
+            left = left and k[j] >= -1e-9
+            right = right and k[j] <= 1e-9
+        total = 0.0
+        for j in range(1, m):
+            dk = (k[j] - k[j - 1]) / max(ds[j], 1e-9)
+            total += dk * dk * ds[j]
+        out[i] = np.inf if one_way and not (left or right) else total
+    return out
 
 
 def crossing_point(
@@ -109,15 +151,9 @@ def door_curve(
     else:
         return None  # facing away from the door: turn first
     ctrl = np.stack([np.broadcast_to(p0, p1.shape), p1, p2, np.broadcast_to(p3, p1.shape)], -2)
-    ctrl = ctrl.reshape(-1, 4, 2)
-    _, d1, d2 = _bezier(ctrl, t)
-    k = _curvature(d1, d2)
-    ds = np.hypot(d1[..., 0], d1[..., 1]) / (SAMPLES - 1)
-    dk = np.diff(k, axis=-1) / np.maximum(ds[..., 1:], 1e-9)
-    cost = np.sum(dk**2 * ds[..., 1:], axis=-1)
-    if pc is not None:  # constraint 4d: it bends one way only
-        one_way = np.all(k >= -1e-9, axis=-1) | np.all(k <= 1e-9, axis=-1)
-        cost = np.where(one_way, cost, np.inf)
+    ctrl = np.ascontiguousarray(ctrl.reshape(-1, 4, 2))
+    # constraint 4d (the paper's family): it bends one way only
+    cost = _search_costs(ctrl, t, pc is not None)
     best = int(np.argmin(cost))
     if not np.isfinite(cost[best]):
         return None

@@ -17,13 +17,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from services.controller import manoeuvre
+from services.controller import door_bezier, manoeuvre
 from services.controller.command import Command
 from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import SamplingMPC
 from services.controller.pure_pursuit import PathFollower
 from services.controller.smooth_pass import FALLBACK, THROUGH, PassSettings, SmoothPass
-from shared import geometry
+from shared import door_scan, geometry
 from shared.config import ConfigError, ControllerConfig, RobotConfig
 from shared.site import Site
 
@@ -74,6 +74,8 @@ class Tracker:
         self.stall = StallWatch(cfg.stall_s, cfg.stall_progress_m)
         manoeuvre.warm_up()
         geometry.warm_up()
+        door_scan.warm_up()
+        door_bezier.warm_up()
         if cfg.mode == "mpc":
             try:
                 self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m, cfg.brake_latency_s)

@@ -19,6 +19,7 @@ import numpy as np
 from services.navigator.door_check import UNKNOWN, door_state_from_scan, lane_blocked
 from shared.config import DoorCheckConfig, DoorScanConfig
 from shared.door_scan import find_doorways
+from shared.door_scan import warm_up as warm_door_scan
 from shared.messages import (
     Clock,
     DoorMode,
@@ -97,6 +98,7 @@ class FleetState:
         self._follow: FollowStatus | None = None
         self._scan: PointCloud | None = None
         self.door_scan = door_scan or DoorScanConfig()  # the doorway finder's (shared.door_scan)
+        warm_door_scan()  # its kernel compiled now, not in a tick that looks for a doorway
         self._doorways: tuple[float, list[tuple[float, float, float, float]]] = (-1.0, [])
         # the building's states, with when each was current (see _current)
         self._doors: dict[str, tuple[float, int]] = {}
