@@ -20,6 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from services.controller.safety import describe_hold, guard, guard_points, obstacle_check
+from services.controller.scan_frame import place_points
 from services.controller.tracking import Tracker
 from shared.arrivals import Arrivals
 from shared.estop import EstopLatch, hold_estop
@@ -45,14 +46,8 @@ def scan_to_world(
 ) -> np.ndarray:
     """Scan points within ``band_m`` of the sensor height and ``range_m`` of it, in the map
     frame (the floor returns of a 3-D LiDAR are not obstacles)."""
-    pts = scan.points
-    keep = (np.abs(pts[:, 2]) < band_m) & (np.hypot(pts[:, 0], pts[:, 1]) < range_m)
-    pts = pts[keep, :2].astype(np.float64)
-    c, s = math.cos(pose.pose.theta), math.sin(pose.pose.theta)
-    return np.stack(
-        [pose.pose.x + c * pts[:, 0] - s * pts[:, 1], pose.pose.y + s * pts[:, 0] + c * pts[:, 1]],
-        axis=1,
-    )
+    p = pose.pose
+    return place_points(scan.points, band_m, range_m, p.x, p.y, p.theta)
 
 
 class PoseHistory:

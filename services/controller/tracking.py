@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from services.controller import door_bezier, manoeuvre
+from services.controller import door_bezier, manoeuvre, scan_frame
 from services.controller.command import Command
 from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import SamplingMPC
@@ -76,6 +76,7 @@ class Tracker:
         geometry.warm_up()
         door_scan.warm_up()
         door_bezier.warm_up()
+        scan_frame.warm_up()  # the node places each scan with it
         if cfg.mode == "mpc":
             try:
                 self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m, cfg.brake_latency_s)
