@@ -35,6 +35,7 @@ MODULES = (
     "services.planner.grid_astar",
     "services.controller.mpc_guides",
     "sim.lidar3d",
+    "services.localisation.matcher",
     "services.localisation.relocalise",
     "services.controller.mpc_numba",
 )

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from services.localisation import matcher
 from services.localisation.matcher import DistanceField, Match, match_scan
 from services.localisation.relocalise import (
     Relocalisation,
@@ -346,7 +347,8 @@ class MapLocaliser:
 
     def warm_up(self) -> None:
         """Compile the search now: a first search in a mission would otherwise hold a
-        lockstep tick (or the wall-time step) for the compile."""
+        lockstep tick (or the wall-time step) for the compile; and the match's sampling."""
+        matcher.warm_up()
         if self.settings.relocalise:
             self._relocaliser().warm_up(self.pose)
 
