@@ -105,3 +105,17 @@ def test_the_pass_runs_its_offset_left_of_the_doorway_s_middle() -> None:
     assert on_middle.step(pose, None)[1] == 0.0
     assert beside.step(pose, None)[1] > 0.0  # turning left, onto y = 2.72
     assert beside.step((4.0, 2.72, 0.0), None)[1] == 0.0
+
+
+def test_a_late_side_approach_asks_for_stop_turn_go_before_the_doorway() -> None:
+    """Campaign b8908.m01, door d2_013 (0.80 m): the leg handed over 1 m before the plane,
+    0.7 m beside the door's line and facing along the wall. There is no room to come onto
+    the line before the front reaches the door: the curve ran the chair into the doorway
+    still turning, 5.6 deg off, a corner 3.4 cm from the jamb (the guard held it; here, with
+    no guard, it hits the wall). A curve whose footprint would cross the jamb's depth more
+    than ``smooth_corner_excess_m`` off the line is not taken: stop-turn-go instead, before
+    anything of the chair is in the doorway."""
+    for x, y in ((5.2, 3.4), (5.4, 3.5)):
+        run = _pass(x, y, -math.pi / 2)
+        assert run["state"] == FALLBACK and run["collisions"] == 0, run
+        assert run["at"] is None, run  # its middle never reached the door plane
