@@ -547,6 +547,14 @@ class ControllerConfig:
     # a smooth pass turns at most at robot.max_turn_rate, and slowly enough to stop turning
     # at this (rad/s^2; under the chair's max_turn_accel: the motors lag) by a bend's end
     smooth_turn_accel: float = field(default=1.0, metadata=check(_positive))
+    # a pass is not driven (stop-turn-go instead) where, followed from where the chair is,
+    # it would bring a point of the footprint more than smooth_corner_excess_m beyond its
+    # half width off the door's line within the jamb (the campaign's clearance limit in an
+    # opening is 3 cm short of the gap a side): handed over late, beside the door or facing
+    # well off it, the chair would still be turning in the doorway. The jamb is taken as
+    # smooth_jamb_depth_m either side of the door plane until the scan shows the reveal
+    smooth_corner_excess_m: float = field(default=0.03, metadata=check(_non_negative))
+    smooth_jamb_depth_m: float = field(default=0.1, metadata=check(_non_negative))
     mpc: MPCConfig = field(default_factory=MPCConfig)
     door_scan: DoorScanConfig = field(default_factory=DoorScanConfig)
 

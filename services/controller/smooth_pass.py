@@ -27,6 +27,10 @@ from shared.config import DoorScanConfig
 from shared.door_scan import DoorTracker, find_doorways
 
 RUNNING, THROUGH, FALLBACK = "running", "through", "fallback"
+PREDICT_DT_S = 0.1  # the step of the pass's prediction (an ideal unicycle)
+PREDICT_STEPS = 300  # at most (30 s of it)
+REPREDICT_M = 0.02  # predicted again before the jamb when the door estimate moves this
+ON_LINE_M, ON_LINE_RAD = 0.002, 0.002  # on the line and along it: the prediction is done
 
 
 @dataclass(frozen=True)
@@ -54,6 +58,8 @@ class PassSettings:
     offset_m: float = 0.0  # the line this far left of the doorway's middle (facing through)
     max_turn_rate: float = 1.0  # the chair's (robot.max_turn_rate)
     turn_accel: float = 1.0  # the turn is slowed to a stop at this as the bend runs out
+    corner_excess_m: float = 0.03  # the most a corner may stray off the line in the jamb
+    jamb_depth_m: float = 0.1  # the jamb either side of the plane until the reveal is seen
 
 
 class SmoothPass:
@@ -74,6 +80,10 @@ class SmoothPass:
         self.centre = self.mapped.copy()  # the mapped door until the scan shows it
         self.width = self.settings.door_width  # as the scan shows it, once it does
         self.seen = 0  # sightings fused into the estimate used
+        st = self.settings
+        self._outline = _outline(st.front_m, st.rear_m, st.chair_width / 2)
+        self._predicted: np.ndarray | None = None  # the door estimate last predicted on
+        self.jamb = st.jamb_depth_m  # the jamb either side of the plane
 
     def _update_door(self, pose: tuple[float, float, float], scan: np.ndarray | None) -> None:
         if scan is None or len(scan) == 0:
@@ -87,6 +97,8 @@ class SmoothPass:
         if near:
             best = max(near, key=lambda e: e.sightings)
             self.centre, self.seen, self.width = best.centre, best.sightings, best.width
+            if best.depth is not None:  # the reveal seen: the wall's own thickness
+                self.jamb = best.depth / 2
             n = best.normal if np.dot(best.normal, self.normal) > 0 else -best.normal
             self.normal = n
 
@@ -143,6 +155,14 @@ class SmoothPass:
     ) -> tuple[float, float, str]:
         """(v, w, state) for this cycle: state RUNNING, THROUGH (stop: done) or FALLBACK."""
         self._update_door(pose, scan)
+        if self._before_jamb(pose) and self._moved_since_predicted():
+            self._predicted = self.centre.copy()
+            if self.predicted_excess(pose) > self._allowed():
+                return 0.0, 0.0, FALLBACK  # it would still be turning in the doorway
+        return self._command(pose)
+
+    def _command(self, pose: tuple[float, float, float]) -> tuple[float, float, str]:
+        """The cycle's (v, w, state) on the current door estimate."""
         s = self.settings
         p = np.array(pose[:2])
         past = float(np.dot(p - self.centre, self.normal))
@@ -169,3 +189,90 @@ class SmoothPass:
         # steer with the curve's own curvature where the chair stands: the curve starts
         # along the chair's heading, so following it is turning at v x its curvature
         return v, v * float(curve.curvature[0]), RUNNING
+
+    # -- will it line up before the doorway? ----------------------------------------------
+
+    def predicted_excess(self, pose: tuple[float, float, float]) -> float:
+        """The most a point of the footprint's outline would stray beyond the half width
+        off the line within the jamb's depth of the door plane, were the chair from
+        ``pose`` to follow this pass exactly (an ideal unicycle, the door where it is
+        estimated now, every ``PREDICT_DT_S``) until its rear is past the jamb.
+
+        The curve alone does not tell: it is re-planned every cycle and the speed is cut
+        where it turns, so a chair facing 66 degrees off the door 1 m before it turns
+        nearly in place and is on the line in time (campaign b0.m00), while one beside the
+        line facing along the wall still turns in the doorway (b8908.m01)."""
+        x, y, th = pose
+        worst = 0.0
+        for _ in range(PREDICT_STEPS):
+            worst = max(worst, self._excess_at(x, y, th))
+            if self._rear_past_jamb((x, y, th)) or self._on_line(x, y, th):
+                break
+            v, w, state = self._command((x, y, th))
+            if state != RUNNING:
+                break
+            mid = th + 0.5 * w * PREDICT_DT_S
+            x += v * PREDICT_DT_S * math.cos(mid)
+            y += v * PREDICT_DT_S * math.sin(mid)
+            th += w * PREDICT_DT_S
+        return worst
+
+    def _allowed(self) -> float:
+        """How far a corner may stray beyond the half width off the line in the jamb:
+        ``corner_excess_m``, less where the gap a side (the scan's width less the line's
+        offset, else the mapped width) leaves less."""
+        s = self.settings
+        if self.width <= 0:
+            return s.corner_excess_m
+        gap = self.width / 2 - abs(s.offset_m) - s.chair_width / 2
+        return max(0.0, min(s.corner_excess_m, gap))
+
+    def _moved_since_predicted(self) -> bool:
+        """No prediction yet, or the door estimate has moved ``REPREDICT_M`` since it."""
+        return self._predicted is None or bool(
+            np.linalg.norm(self.centre - self._predicted) > REPREDICT_M
+        )
+
+    def _frame(self, x: float, y: float, th: float) -> tuple[np.ndarray, np.ndarray]:
+        """The outline's points as (along the normal from the plane, left of the line)."""
+        s = self.settings
+        left = np.array([-self.normal[1], self.normal[0]])
+        rel = np.array([x, y]) - (self.centre + s.offset_m * left)
+        turn = th - math.atan2(self.normal[1], self.normal[0])
+        c, sn = math.cos(turn), math.sin(turn)
+        fx, fy = self._outline
+        along = float(rel @ self.normal) + c * fx - sn * fy
+        lat = float(rel @ left) + sn * fx + c * fy
+        return along, lat
+
+    def _excess_at(self, x: float, y: float, th: float) -> float:
+        along, lat = self._frame(x, y, th)
+        in_jamb = np.abs(along) <= self.jamb
+        if not in_jamb.any():
+            return 0.0
+        return float(np.abs(lat[in_jamb]).max()) - self.settings.chair_width / 2
+
+    def _on_line(self, x: float, y: float, th: float) -> bool:
+        """On the line and along it (within ``ON_LINE_M`` and ``ON_LINE_RAD``): from here
+        the pass runs straight, its corners no further off than now."""
+        left = np.array([-self.normal[1], self.normal[0]])
+        lat = float((np.array([x, y]) - self.centre) @ left) - self.settings.offset_m
+        turn = abs(math.remainder(th - math.atan2(self.normal[1], self.normal[0]), math.tau))
+        return abs(lat) <= ON_LINE_M and turn <= ON_LINE_RAD
+
+    def _before_jamb(self, pose: tuple[float, float, float]) -> bool:
+        return bool(self._frame(*pose)[0].max() < -self.jamb)
+
+    def _rear_past_jamb(self, pose: tuple[float, float, float]) -> bool:
+        return bool(self._frame(*pose)[0].min() > self.jamb)
+
+
+def _outline(front: float, rear: float, half: float, step: float = 0.02) -> np.ndarray:
+    """Points at most ``step`` apart round the footprint's rectangle (chair frame: x
+    forwards from the reference point, y to the left), as (2, N)."""
+    nx = max(2, math.ceil((front + rear) / step) + 1)
+    ny = max(2, math.ceil(2 * half / step) + 1)
+    xs, ys = np.linspace(-rear, front, nx), np.linspace(-half, half, ny)
+    fx = np.concatenate([xs, xs, np.full(ny, -rear), np.full(ny, front)])
+    fy = np.concatenate([np.full(nx, -half), np.full(nx, half), ys, ys])
+    return np.stack([fx, fy])

@@ -163,6 +163,8 @@ class Tracker:
                 max_turn_rate=self.robot.max_turn_rate,
                 turn_accel=cfg.smooth_turn_accel,
                 offset_m=offset,
+                corner_excess_m=cfg.smooth_corner_excess_m,
+                jamb_depth_m=cfg.smooth_jamb_depth_m,
             )
             self.smooth = SmoothPass((cx, cy), heading, settings, cfg.door_scan)
             self._precise = True

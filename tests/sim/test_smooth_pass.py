@@ -86,14 +86,20 @@ def test_a_tight_curve_keeps_to_the_turn_rate_and_does_not_swing_past_the_line()
     off, the pass asked for 3.5 rad/s (the chair turns at most 1.0) at 0.1 m/s, then for
     0.5 m/s as the heading came round; the chair's turn lagged, swung 16 deg past the
     line, and a corner came to 3.2 cm of the jamb. The speed is cut so that the turn the
-    curve asks for, here and ahead, is one the chair can make and stop."""
+    curve asks for, here and ahead, is one the chair can make and stop.
+
+    From 1.05 m the chair would still be turning as its front reaches the jamb (a corner
+    6 cm off the line there: the pass asks for stop-turn-go, see the next test); 15 cm
+    further back it is on the line in time."""
     robot = RobotConfig()
-    run = _pass(5.15, 2.85, math.radians(-66))
+    run = _pass(5.0, 2.85, math.radians(-66))
     print(f"max w {run['max_w']:.2f} rad/s, overshoot {run['overshoot_deg']:.1f} deg, {run}")
     assert run["state"] == THROUGH and run["collisions"] == 0, run
     assert run["max_w"] <= robot.max_turn_rate + 1e-9
+    assert run["max_w"] >= robot.max_turn_rate - 1e-6  # the limit did cut the turn
     assert run["overshoot_deg"] <= 5.0
     assert run["clearance"] >= (1.0 - 0.65) / 2 - 0.03
+    assert _pass(5.15, 2.85, math.radians(-66))["state"] == FALLBACK
 
 
 def test_the_pass_runs_its_offset_left_of_the_doorway_s_middle() -> None:
@@ -112,9 +118,9 @@ def test_a_late_side_approach_asks_for_stop_turn_go_before_the_doorway() -> None
     0.7 m beside the door's line and facing along the wall. There is no room to come onto
     the line before the front reaches the door: the curve ran the chair into the doorway
     still turning, 5.6 deg off, a corner 3.4 cm from the jamb (the guard held it; here, with
-    no guard, it hits the wall). A curve whose footprint would cross the jamb's depth more
-    than ``smooth_corner_excess_m`` off the line is not taken: stop-turn-go instead, before
-    anything of the chair is in the doorway."""
+    no guard, it hits the wall). A pass that, followed from where the chair is, would bring
+    a point of the footprint more than ``smooth_corner_excess_m`` off the line in the jamb
+    is not driven: stop-turn-go instead, before anything of the chair is in the doorway."""
     for x, y in ((5.2, 3.4), (5.4, 3.5)):
         run = _pass(x, y, -math.pi / 2)
         assert run["state"] == FALLBACK and run["collisions"] == 0, run
