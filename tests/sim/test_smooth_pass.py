@@ -125,3 +125,27 @@ def test_a_late_side_approach_asks_for_stop_turn_go_before_the_doorway() -> None
         run = _pass(x, y, -math.pi / 2)
         assert run["state"] == FALLBACK and run["collisions"] == 0, run
         assert run["at"] is None, run  # its middle never reached the door plane
+
+
+def test_a_door_not_seen_open_is_never_entered_without_the_navigator() -> None:
+    """The navigator hands the pass over before it has verified the door, and stops the
+    chair if it is not seen open by then; were it to die in between, the controller would
+    drive the pass on into a closed door (the guard holds the chair at the leaf, a few
+    cm off). The pass itself stops the front ``smooth_open_by_m`` before the plane until
+    its own scans show the doorway open."""
+    sim = make(x=3.0, y=2.7, theta=0.0)
+    sim.set_door_openings(["door_ab"], [0.0])
+    fp = RobotConfig().footprint
+    smooth = SmoothPass((6.2, 2.7), 0.0)
+    scan, front = None, -math.inf
+    for _ in range(1500):  # 15 s
+        s = sim.state
+        v, w, state = smooth.step((s.x, s.y, s.theta), scan)
+        assert state == RUNNING
+        sim.command(v, w)
+        result = sim.step()
+        scan = result.scan
+        front = max(front, s.x + fp.front * math.cos(s.theta))
+    print(f"front at most {front:.3f} m, {sim.collisions} collisions")
+    assert sim.collisions == 0
+    assert 6.2 - 0.35 <= front <= 6.2 - 0.3 + 0.01  # stopped by the plane, not short of it
