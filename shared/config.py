@@ -555,6 +555,10 @@ class ControllerConfig:
     # smooth_jamb_depth_m either side of the door plane until the scan shows the reveal
     smooth_corner_excess_m: float = field(default=0.03, metadata=check(_non_negative))
     smooth_jamb_depth_m: float = field(default=0.1, metadata=check(_non_negative))
+    # until the controller's own scans show the doorway open the pass stops the front this
+    # far before the door plane (the navigator verifies the door before its
+    # smooth_commit_m; a navigator that died in between cannot send the chair into it)
+    smooth_open_by_m: float = field(default=0.3, metadata=check(_non_negative))
     mpc: MPCConfig = field(default_factory=MPCConfig)
     door_scan: DoorScanConfig = field(default_factory=DoorScanConfig)
 

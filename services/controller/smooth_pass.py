@@ -31,6 +31,7 @@ PREDICT_DT_S = 0.1  # the step of the pass's prediction (an ideal unicycle)
 PREDICT_STEPS = 300  # at most (30 s of it)
 REPREDICT_M = 0.02  # predicted again before the jamb when the door estimate moves this
 ON_LINE_M, ON_LINE_RAD = 0.002, 0.002  # on the line and along it: the prediction is done
+STOP_SLACK_M = 0.05  # a front this far past the stop line has committed to the door
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,7 @@ class PassSettings:
     turn_accel: float = 1.0  # the turn is slowed to a stop at this as the bend runs out
     corner_excess_m: float = 0.03  # the most a corner may stray off the line in the jamb
     jamb_depth_m: float = 0.1  # the jamb either side of the plane until the reveal is seen
+    open_by_m: float = 0.3  # the front stops this far before the plane until seen open
 
 
 class SmoothPass:
@@ -84,6 +86,7 @@ class SmoothPass:
         self._outline = _outline(st.front_m, st.rear_m, st.chair_width / 2)
         self._predicted: np.ndarray | None = None  # the door estimate last predicted on
         self.jamb = st.jamb_depth_m  # the jamb either side of the plane
+        self.open = False  # the doorway as the latest scan that showed it saw it
 
     def _update_door(self, pose: tuple[float, float, float], scan: np.ndarray | None) -> None:
         if scan is None or len(scan) == 0:
@@ -99,6 +102,7 @@ class SmoothPass:
             self.centre, self.seen, self.width = best.centre, best.sightings, best.width
             if best.depth is not None:  # the reveal seen: the wall's own thickness
                 self.jamb = best.depth / 2
+            self.open = best.open
             n = best.normal if np.dot(best.normal, self.normal) > 0 else -best.normal
             self.normal = n
 
@@ -159,7 +163,24 @@ class SmoothPass:
             self._predicted = self.centre.copy()
             if self.predicted_excess(pose) > self._allowed():
                 return 0.0, 0.0, FALLBACK  # it would still be turning in the doorway
-        return self._command(pose)
+        v, w, state = self._command(pose)
+        stop = self._stop_short(pose)
+        if v > stop:
+            v, w = stop, w * stop / v
+        return v, w, state
+
+    def _stop_short(self, pose: tuple[float, float, float]) -> float:
+        """The most speed from which the front stops ``open_by_m`` before the door plane
+        (braking at ``decel``) while the scans have not shown the doorway open; no limit
+        once they have or once the front is past that line. The navigator verifies the
+        door before the front is its ``smooth_commit_m`` before the plane and stops the
+        chair if it cannot; this holds if the navigator has died in between."""
+        if self.open:
+            return math.inf
+        to_line = -self.settings.open_by_m - float(self._frame(*pose)[0].max())
+        if to_line < -STOP_SLACK_M:
+            return math.inf  # committed: stopping now would leave it in the doorway
+        return math.sqrt(2 * self.settings.decel * max(to_line, 0.0))
 
     def _command(self, pose: tuple[float, float, float]) -> tuple[float, float, str]:
         """The cycle's (v, w, state) on the current door estimate."""

@@ -165,6 +165,7 @@ class Tracker:
                 offset_m=offset,
                 corner_excess_m=cfg.smooth_corner_excess_m,
                 jamb_depth_m=cfg.smooth_jamb_depth_m,
+                open_by_m=cfg.smooth_open_by_m,
             )
             self.smooth = SmoothPass((cx, cy), heading, settings, cfg.door_scan)
             self._precise = True
