@@ -452,10 +452,16 @@ class DoorTracker:
             track["open"] = w.open
 
     @staticmethod
-    def _centre(track: dict) -> np.ndarray:
+    def _jambs(track: dict) -> tuple[np.ndarray, np.ndarray]:
+        """The track's left and right jambs: its sightings' weighted means."""
         weights = track["weight"]
         left = np.average(track["left"], axis=0, weights=weights)
-        return (left + np.average(track["right"], axis=0, weights=weights)) / 2
+        return left, np.average(track["right"], axis=0, weights=weights)
+
+    @classmethod
+    def _centre(cls, track: dict) -> np.ndarray:
+        left, right = cls._jambs(track)
+        return (left + right) / 2
 
     def _match(self, centre: np.ndarray, span: np.ndarray) -> dict | None:
         for track in self._tracks:
@@ -471,8 +477,7 @@ class DoorTracker:
         out = []
         for track in self._tracks:
             weights = np.array(track["weight"])
-            left = np.average(track["left"], axis=0, weights=weights)
-            right = np.average(track["right"], axis=0, weights=weights)
+            left, right = self._jambs(track)
             span = right - left
             width = float(np.linalg.norm(span))
             direction = span / max(width, 1e-9)

@@ -132,18 +132,19 @@ class SmoothPass:
             return s.door_speed
         return v_door
 
-    def _turn_limit(self, curve) -> float:
+    def _turn_limit(self, curve, segments: np.ndarray) -> float:
         """The most speed at which the turn the curve asks for here (speed x curvature) is
         one the chair makes: at most ``max_turn_rate``, and slow enough to stop turning at
         ``turn_accel`` by the end of the bend it is in (the heading still to turn that
         way): a chair still turning at 1 rad/s as it comes onto the door's line swings
-        past it (campaign b0.m00: 16 deg, a corner 3.2 cm from the jamb)."""
+        past it (campaign b0.m00: 16 deg, a corner 3.2 cm from the jamb). ``segments``:
+        the lengths between the curve's points."""
         k = curve.curvature
         if abs(k[0]) < 1e-6:
             return math.inf
         same = np.sign(k) == np.sign(k[0])
         bend = int(np.argmin(same)) if not same.all() else len(k)  # its points
-        turning = np.abs(k[:-1]) * np.hypot(*np.diff(curve.points, axis=0).T)  # per segment
+        turning = np.abs(k[:-1]) * segments  # the heading turned per segment
         to_turn = float(turning[: bend - 1].sum())
         w = min(self.settings.max_turn_rate, math.sqrt(2 * self.settings.turn_accel * to_turn))
         return w / abs(float(k[0]))
@@ -206,7 +207,7 @@ class SmoothPass:
         step = np.hypot(*np.diff(curve.points, axis=0).T)
         ahead = np.concatenate([[0.0], np.cumsum(step)]) <= s.lookahead_m
         limit = float(curve.speed_limit(s.door_speed, s.lateral_accel)[ahead].min())
-        v = min(limit, self._doorway_limit(past), self._turn_limit(curve))
+        v = min(limit, self._doorway_limit(past), self._turn_limit(curve, step))
         # steer with the curve's own curvature where the chair stands: the curve starts
         # along the chair's heading, so following it is turning at v x its curvature
         return v, v * float(curve.curvature[0]), RUNNING
