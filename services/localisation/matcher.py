@@ -5,8 +5,9 @@ wall face, negative inside walls (two Euclidean distance transforms, each less h
 cell, since they run between cell centres and a face lies between two). A scan is
 matched by Gauss-Newton on the pose (x, y, theta), minimising the squared field value at
 the scan's end points (bilinear interpolation with its exact gradient), with a cut-off
-that ignores points far from any wall (people, furniture not in the map). Everything is
-vectorised over the points; a 360-point scan matches in well under a millisecond.
+that ignores points far from any wall (people, furniture not in the map). The work per
+point is compiled (numba), the small normal equations stay numpy's: a VLP-16 band of
+2,000 points matches in about 0.3 ms.
 
 The match also reports how well the scan fits (the share of points within
 ``inlier_m`` of a wall), from which the localisation derives its "lost" flag.
@@ -120,6 +121,32 @@ class DistanceField:
             np.ascontiguousarray(pts[:, 1], dtype=np.float64),
         )
 
+    def terms(
+        self,
+        px: np.ndarray,
+        py: np.ndarray,
+        pose: tuple[float, float, float],
+        cut: float,
+        soft: float,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One Gauss-Newton step's rows for scan points (px, py; sensor frame) at ``pose``:
+        the points whose field value is under ``cut``, each its Jacobian row (d/dx, d/dy,
+        d/dtheta), that row times its Cauchy weight 1 / (1 + (value / soft)^2), and the
+        value itself."""
+        sweeps = self.sweeps if self.sweeps is not None else _NO_SWEEPS
+        x, y, th = pose
+        return _terms(
+            self.field,
+            sweeps,
+            self.sweeps is not None,
+            (float(self.ox), float(self.oy), float(self.res), float(self.max_distance_m)),
+            px,
+            py,
+            (x, y, math.cos(th), math.sin(th)),
+            cut,
+            soft,
+        )
+
 
 _NO_SWEEPS = np.zeros((1, 1), dtype=np.bool_)
 
@@ -127,7 +154,9 @@ _NO_SWEEPS = np.zeros((1, 1), dtype=np.bool_)
 def warm_up() -> None:
     """Compile (or load) the sampling kernel now, not in the first scan match."""
     field = np.zeros((3, 3))
-    _sample(field, _NO_SWEEPS, False, (0.0, 0.0, 1.0, 2.0), np.ones(1), np.ones(1))
+    geo = (0.0, 0.0, 1.0, 2.0)
+    _sample(field, _NO_SWEEPS, False, geo, np.ones(1), np.ones(1))
+    _terms(field, _NO_SWEEPS, False, geo, np.ones(1), np.ones(1), (0.0, 0.0, 1.0, 0.0), 1.0, 0.05)
 
 
 @numba.njit(cache=True)
@@ -160,6 +189,37 @@ def _sample(field, sweeps, has_sweeps, geo, px, py):
     return value, gx, gy
 
 
+@numba.njit(cache=True)
+def _terms(field, sweeps, has_sweeps, geo, px, py, at, cut, soft):
+    """``DistanceField.terms``, as the vectorised step computed them (the same bits);
+    at = (x, y, cos theta, sin theta)."""
+    x, y, c, s = at
+    n = px.shape[0]
+    wx, wy = np.empty(n), np.empty(n)
+    for i in range(n):
+        wx[i] = x + c * px[i] - s * py[i]
+        wy[i] = y + s * px[i] + c * py[i]
+    d, gx, gy = _sample(field, sweeps, has_sweeps, geo, wx, wy)
+    m = 0
+    for i in range(n):
+        if abs(d[i]) < cut:
+            m += 1
+    jac, weighted, r = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+    k = 0
+    for i in range(n):
+        if not abs(d[i]) < cut:
+            continue
+        # d(world point)/d(theta) = (-s px - c py, c px - s py)
+        dth = gx[i] * (-s * px[i] - c * py[i]) + gy[i] * (c * px[i] - s * py[i])
+        q = d[i] / soft
+        w = 1.0 / (1.0 + q * q)
+        jac[k, 0], jac[k, 1], jac[k, 2] = gx[i], gy[i], dth
+        weighted[k, 0], weighted[k, 1], weighted[k, 2] = gx[i] * w, gy[i] * w, dth * w
+        r[k] = d[i]
+        k += 1
+    return jac, weighted, r
+
+
 def match_scan(
     field: DistanceField,
     points: np.ndarray,
@@ -179,27 +239,19 @@ def match_scan(
     x, y, th = guess
     prior = np.eye(3) * max(prior_weight, 1e-6)
     pts = np.asarray(points, dtype=np.float64)[:, :2]
+    px, py = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
     h = prior
     it = 0
     for it in range(1, iterations + 1):  # noqa: B007 (the count is reported)
-        c, s = math.cos(th), math.sin(th)
-        wx = x + c * pts[:, 0] - s * pts[:, 1]
-        wy = y + s * pts[:, 0] + c * pts[:, 1]
-        d, gx, gy = field.sample(np.stack([wx, wy], axis=1))
         # the cut-off shrinks as the match settles, so unmapped objects near walls (an open
         # door leaf, a person) stop pulling; Cauchy weights soften what is left
         cut = max(inlier_m, cutoff_m * 0.7 ** (it - 1))
-        use = np.abs(d) < cut
-        if use.sum() < 10:
+        jac, weighted, r = field.terms(px, py, (x, y, th), cut, 0.5 * inlier_m)
+        if len(r) < 10:
             break
-        # d(world point)/d(theta) = (-s px - c py, c px - s py)
-        dth = gx * (-s * pts[:, 0] - c * pts[:, 1]) + gy * (c * pts[:, 0] - s * pts[:, 1])
-        jac = np.stack([gx, gy, dth], axis=1)[use]
-        r = d[use]
-        w = 1.0 / (1.0 + (r / (0.5 * inlier_m)) ** 2)
-        h = (jac * w[:, None]).T @ jac + prior
+        h = weighted.T @ jac + prior
         offset = np.array([x - guess[0], y - guess[1], th - guess[2]])
-        step = np.linalg.solve(h, -(jac * w[:, None]).T @ r - prior @ offset)
+        step = np.linalg.solve(h, -weighted.T @ r - prior @ offset)
         step[:2] = np.clip(step[:2], -0.2, 0.2)
         step[2] = max(-0.1, min(0.1, step[2]))
         x, y, th = x + step[0], y + step[1], th + step[2]
