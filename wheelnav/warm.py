@@ -30,6 +30,7 @@ MODULES = (
     "shared.door_scan",
     "services.controller.door_bezier",
     "services.controller.edt",
+    "services.controller.mpc_scene",
     "services.controller.scan_frame",
     "services.controller.manoeuvre",
     "services.planner.grid_astar",

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from services.controller.edt import distance_transform
@@ -147,28 +148,56 @@ def obstacle_field(
     """
     if obstacles is None or len(obstacles) == 0:
         return None
-    pts = np.asarray(obstacles, dtype=np.float64)
+    pts = np.asarray(obstacles)
     grow = cutoff + body.part_r + 3.0 * res
     reach = horizon + body.radius * 1.5 + grow
-    # column by column: numpy reduces an (N, 2) array along its first axis about 50 times
-    # slower than each column on its own (16,000 points: 0.69 ms for a min against 13 us)
-    px, py = pts[:, 0], pts[:, 1]
-    keep = (np.abs(px - x) <= reach) & (np.abs(py - y) <= reach)
-    keep &= np.isfinite(px) & np.isfinite(py)
-    px, py = px[keep], py[keep]
-    if len(px) == 0:
+    free, ox, oy = _stamp(pts[:, 0], pts[:, 1], x, y, reach, grow, res)
+    if free.size == 0:
         return None
-    lo = np.maximum(np.array([px.min(), py.min()]) - grow, (x - reach, y - reach))
-    hi = np.minimum(np.array([px.max(), py.max()]) + grow, (x + reach, y + reach))
-    shape = np.maximum(np.ceil((hi - lo) / res).astype(int), 2)
-    cols = ((px - lo[0]) / res).astype(int)
-    rows = ((py - lo[1]) / res).astype(int)
-    free = np.ones((shape[1], shape[0]), dtype=bool)
-    free[np.clip(rows, 0, shape[1] - 1), np.clip(cols, 0, shape[0] - 1)] = False
     dist = distance_transform(free)
     dist *= np.float32(res)
     dist -= np.float32(2.0 * _half_diag(res))
-    return Field(dist, float(lo[0]), float(lo[1]), res, FAR)
+    return Field(dist, float(ox), float(oy), res, FAR)
+
+
+@numba.njit(cache=True)
+def _stamp(px_in, py_in, x, y, reach, grow, res):
+    """The grid of ``obstacle_field`` (True: free) and its origin: the finite points
+    within ``reach`` of (x, y) on both axes, stamped into cells of ``res`` over their
+    bounding box grown by ``grow`` and clipped to that reach (0 x 0 if none). One pass
+    to bound them, one to stamp, as the vectorised form did (the same cells)."""
+    n = px_in.shape[0]
+    keep = np.zeros(n, dtype=np.bool_)
+    lo_x = lo_y = np.inf
+    hi_x = hi_y = -np.inf
+    for i in range(n):
+        px, py = np.float64(px_in[i]), np.float64(py_in[i])
+        near = abs(px - x) <= reach and abs(py - y) <= reach
+        if near and math.isfinite(px) and math.isfinite(py):
+            keep[i] = True
+            lo_x, lo_y = min(lo_x, px), min(lo_y, py)
+            hi_x, hi_y = max(hi_x, px), max(hi_y, py)
+    if not keep.any():
+        return np.ones((0, 0), dtype=np.bool_), 0.0, 0.0
+    ox, oy = max(lo_x - grow, x - reach), max(lo_y - grow, y - reach)
+    ex, ey = min(hi_x + grow, x + reach), min(hi_y + grow, y + reach)
+    cols = max(int(math.ceil((ex - ox) / res)), 2)
+    rows = max(int(math.ceil((ey - oy) / res)), 2)
+    free = np.ones((rows, cols), dtype=np.bool_)
+    for i in range(n):
+        if keep[i]:
+            c = int((np.float64(px_in[i]) - ox) / res)
+            r = int((np.float64(py_in[i]) - oy) / res)
+            free[min(max(r, 0), rows - 1), min(max(c, 0), cols - 1)] = False
+    return free, ox, oy
+
+
+def warm_up() -> None:
+    """Compile (or load) the stamping kernel now for float64 points (the controller's
+    placed scan) and float32 ones, not in the first control cycle with LiDAR points."""
+    for kind in (np.float64, np.float32):
+        pts = np.zeros((2, 2), dtype=kind)  # columns of an (N, 2) array, as the scene's
+        _stamp(pts[:, 0], pts[:, 1], 0.0, 0.0, 1.0, 0.5, 0.1)
 
 
 def _half_diag(res: float) -> float:
