@@ -548,12 +548,15 @@ class ControllerConfig:
     # at this (rad/s^2; under the chair's max_turn_accel: the motors lag) by a bend's end
     smooth_turn_accel: float = field(default=1.0, metadata=check(_positive))
     # a pass is not driven (stop-turn-go instead) where, followed from where the chair is,
-    # it would bring a point of the footprint more than smooth_corner_excess_m beyond its
-    # half width off the door's line within the jamb (the campaign's clearance limit in an
-    # opening is 3 cm short of the gap a side): handed over late, beside the door or facing
+    # it would bring a point of the footprint, within the jamb, more than
+    # smooth_corner_excess_m beyond its half width off the door's line while the
+    # footprint's centre is in the jamb, or nearer than smooth_outline_clearance_m to a
+    # jamb while only its outline is (the campaign's limits: 3 cm short of the gap a side
+    # while passing, 5 cm away from doors): handed over late, beside the door or facing
     # well off it, the chair would still be turning in the doorway. The jamb is taken as
     # smooth_jamb_depth_m either side of the door plane until the scan shows the reveal
     smooth_corner_excess_m: float = field(default=0.03, metadata=check(_non_negative))
+    smooth_outline_clearance_m: float = field(default=0.05, metadata=check(_non_negative))
     smooth_jamb_depth_m: float = field(default=0.1, metadata=check(_non_negative))
     # until the controller's own scans show the doorway open the pass stops the front this
     # far before the door plane (the navigator verifies the door before its

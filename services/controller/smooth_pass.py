@@ -60,6 +60,7 @@ class PassSettings:
     max_turn_rate: float = 1.0  # the chair's (robot.max_turn_rate)
     turn_accel: float = 1.0  # the turn is slowed to a stop at this as the bend runs out
     corner_excess_m: float = 0.03  # the most a corner may stray off the line in the jamb
+    outline_clearance_m: float = 0.05  # ... or closer to a jamb, the centre not yet in it
     jamb_depth_m: float = 0.1  # the jamb either side of the plane until the reveal is seen
     open_by_m: float = 0.3  # the front stops this far before the plane until seen open
 
@@ -162,7 +163,8 @@ class SmoothPass:
         self._update_door(pose, scan)
         if self._before_jamb(pose) and self._moved_since_predicted():
             self._predicted = self.centre.copy()
-            if self.predicted_excess(pose) > self._allowed():
+            centred, outline = self.predicted_excess(pose)
+            if centred > self._allowed() or outline > self._allowed_outline():
                 return 0.0, 0.0, FALLBACK  # it would still be turning in the doorway
         v, w, state = self._command(pose)
         stop = self._stop_short(pose)
@@ -214,20 +216,26 @@ class SmoothPass:
 
     # -- will it line up before the doorway? ----------------------------------------------
 
-    def predicted_excess(self, pose: tuple[float, float, float]) -> float:
-        """The most a point of the footprint's outline would stray beyond the half width
-        off the line within the jamb's depth of the door plane, were the chair from
-        ``pose`` to follow this pass exactly (an ideal unicycle, the door where it is
-        estimated now, every ``PREDICT_DT_S``) until its rear is past the jamb.
+    def predicted_excess(self, pose: tuple[float, float, float]) -> tuple[float, float]:
+        """How far a point of the footprint's outline would stray beyond the half width
+        off the line within the jamb's depth of the door plane, at most, were the chair
+        from ``pose`` to follow this pass exactly (an ideal unicycle, the door where it is
+        estimated now, every ``PREDICT_DT_S``) until it is on the line or through: while
+        the footprint's centre is in the jamb (passing), and while only its outline is
+        (its front entering, still turning).
 
         The curve alone does not tell: it is re-planned every cycle and the speed is cut
         where it turns, so a chair facing 66 degrees off the door 1 m before it turns
         nearly in place and is on the line in time (campaign b0.m00), while one beside the
         line facing along the wall still turns in the doorway (b8908.m01)."""
         x, y, th = pose
-        worst = 0.0
+        centred = outline = 0.0
         for _ in range(PREDICT_STEPS):
-            worst = max(worst, self._excess_at(x, y, th))
+            excess, centre_in = self._excess_at(x, y, th)
+            if centre_in:
+                centred = max(centred, excess)
+            else:
+                outline = max(outline, excess)
             if self._rear_past_jamb((x, y, th)) or self._on_line(x, y, th):
                 break
             v, w, state = self._command((x, y, th))
@@ -237,17 +245,32 @@ class SmoothPass:
             x += v * PREDICT_DT_S * math.cos(mid)
             y += v * PREDICT_DT_S * math.sin(mid)
             th += w * PREDICT_DT_S
-        return worst
+        return centred, outline
 
-    def _allowed(self) -> float:
-        """How far a corner may stray beyond the half width off the line in the jamb:
-        ``corner_excess_m``, less where the gap a side (the scan's width less the line's
-        offset, else the mapped width) leaves less."""
+    def _gap(self) -> float | None:
+        """The gap a side on the pass's line: the scan's width (else the mapped one) less
+        the line's offset and the chair; None while the width is unknown."""
         s = self.settings
         if self.width <= 0:
-            return s.corner_excess_m
-        gap = self.width / 2 - abs(s.offset_m) - s.chair_width / 2
-        return max(0.0, min(s.corner_excess_m, gap))
+            return None
+        return self.width / 2 - abs(s.offset_m) - s.chair_width / 2
+
+    def _allowed(self) -> float:
+        """How far a corner may stray beyond the half width off the line while the
+        footprint's centre is in the jamb: ``corner_excess_m``, less where the gap a side
+        leaves less (the campaign's limit while passing: the gap less 3 cm)."""
+        gap = self._gap()
+        excess = self.settings.corner_excess_m
+        return excess if gap is None else max(0.0, min(excess, gap))
+
+    def _allowed_outline(self) -> float:
+        """... and while only its outline is: as close as ``outline_clearance_m`` to a
+        jamb (the campaign's limit away from doors), or the first limit where that is more
+        (a narrow door)."""
+        gap = self._gap()
+        if gap is None:
+            return self._allowed()
+        return max(self._allowed(), gap - self.settings.outline_clearance_m)
 
     def _moved_since_predicted(self) -> bool:
         """No prediction yet, or the door estimate has moved ``REPREDICT_M`` since it."""
@@ -267,12 +290,19 @@ class SmoothPass:
         lat = float(rel @ left) + sn * fx + c * fy
         return along, lat
 
-    def _excess_at(self, x: float, y: float, th: float) -> float:
+    def _excess_at(self, x: float, y: float, th: float) -> tuple[float, bool]:
+        """How far the outline strays beyond the half width off the line within the jamb
+        (0 if none of it is there), and whether the footprint's centre is in the jamb."""
+        s = self.settings
         along, lat = self._frame(x, y, th)
         in_jamb = np.abs(along) <= self.jamb
         if not in_jamb.any():
-            return 0.0
-        return float(np.abs(lat[in_jamb]).max()) - self.settings.chair_width / 2
+            return 0.0, False
+        mid = (s.front_m - s.rear_m) / 2  # the footprint's centre, ahead of the pose
+        centre = float((np.array([x, y]) - self.centre) @ self.normal) + mid * math.cos(
+            th - math.atan2(self.normal[1], self.normal[0])
+        )
+        return float(np.abs(lat[in_jamb]).max()) - s.chair_width / 2, abs(centre) <= self.jamb
 
     def _on_line(self, x: float, y: float, th: float) -> bool:
         """On the line and along it (within ``ON_LINE_M`` and ``ON_LINE_RAD``): from here

@@ -165,6 +165,7 @@ class Tracker:
                 turn_accel=cfg.smooth_turn_accel,
                 offset_m=offset,
                 corner_excess_m=cfg.smooth_corner_excess_m,
+                outline_clearance_m=cfg.smooth_outline_clearance_m,
                 jamb_depth_m=cfg.smooth_jamb_depth_m,
                 open_by_m=cfg.smooth_open_by_m,
             )
