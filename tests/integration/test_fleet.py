@@ -37,7 +37,9 @@ READY_S = 180.0
 
 def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    up, lines, reader = start_up("--listen", endpoint)
+    # at half real time the mission below lasts over 36 s of wall time (18.4 s simulated):
+    # a terminal's status call, a process start of seconds under load, sees it running
+    up, lines, reader = start_up("--listen", endpoint, "--set", "sim.realtime_factor=0.5")
     try:
         assert any("fleet up" in ln for ln in lines), "".join(lines)
         keys = Keys("chair1")
@@ -97,9 +99,11 @@ def test_up_serves_topics_to_the_topic_tools_and_stops_on_ctrl_c() -> None:
         assert go.returncode == 0 and "goal cli-" in go.stdout, go.stderr
         deadline = time.monotonic() + 30
         status = ""
-        while time.monotonic() < deadline and "Leg 0 (1/3)" not in status:
+        while time.monotonic() < deadline and ": running, " not in status:
             status = wheelnav("status", "--connect", endpoint).stdout
-        assert ": running, Leg 0 (1/3), phase follow" in status, status
+        # whichever part of the route it is on (the first leg hands over to the door's pass
+        # 3.8 s in, simulated: a loaded machine's first status call came after it)
+        assert re.search(r": running, (Leg|Door) \S+ \(\d/3\), phase \w+", status), status
         assert wheelnav("cancel", "--connect", endpoint).returncode == 0
         status = wheelnav("status", "--follow", "--duration", "2", "--connect", endpoint).stdout
         assert ": cancelled" in status and "cancelled by request" in status, status
