@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.controller.door_bezier import door_curve
-from shared.config import DoorScanConfig
+from services.controller.mpc_scene import footprint_points
+from shared.config import DoorScanConfig, Footprint
 from shared.door_scan import DoorTracker, find_doorways
 
 RUNNING, THROUGH, FALLBACK = "running", "through", "fallback"
@@ -84,7 +85,8 @@ class SmoothPass:
         self.width = self.settings.door_width  # as the scan shows it, once it does
         self.seen = 0  # sightings fused into the estimate used
         st = self.settings
-        self._outline = _outline(st.front_m, st.rear_m, st.chair_width / 2)
+        outline, _ = footprint_points(Footprint(st.chair_width, st.rear_m, st.front_m), 0.02)
+        self._outline = outline.astype(np.float64).T  # (2, N): x forwards, y to the left
         self._predicted: np.ndarray | None = None  # the door estimate last predicted on
         self.jamb = st.jamb_depth_m  # the jamb either side of the plane
         self.open = False  # the doorway as the latest scan that showed it saw it
@@ -317,14 +319,3 @@ class SmoothPass:
 
     def _rear_past_jamb(self, pose: tuple[float, float, float]) -> bool:
         return bool(self._frame(*pose)[0].min() > self.jamb)
-
-
-def _outline(front: float, rear: float, half: float, step: float = 0.02) -> np.ndarray:
-    """Points at most ``step`` apart round the footprint's rectangle (chair frame: x
-    forwards from the reference point, y to the left), as (2, N)."""
-    nx = max(2, math.ceil((front + rear) / step) + 1)
-    ny = max(2, math.ceil(2 * half / step) + 1)
-    xs, ys = np.linspace(-rear, front, nx), np.linspace(-half, half, ny)
-    fx = np.concatenate([xs, xs, np.full(ny, -rear), np.full(ny, front)])
-    fy = np.concatenate([np.full(nx, -half), np.full(nx, half), ys, ys])
-    return np.stack([fx, fy])

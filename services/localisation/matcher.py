@@ -111,12 +111,8 @@ class DistanceField:
     def sample(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Field value and its x/y gradient at world points (N, 2); max distance outside
         the grid, and in a leaf's sweep off a wall."""
-        sweeps = self.sweeps if self.sweeps is not None else _NO_SWEEPS
         return _sample(
-            self.field,
-            sweeps,
-            self.sweeps is not None,
-            (float(self.ox), float(self.oy), float(self.res), float(self.max_distance_m)),
+            *self._kernel_args(),
             np.ascontiguousarray(pts[:, 0], dtype=np.float64),
             np.ascontiguousarray(pts[:, 1], dtype=np.float64),
         )
@@ -133,19 +129,22 @@ class DistanceField:
         the points whose field value is under ``cut``, each its Jacobian row (d/dx, d/dy,
         d/dtheta), that row times its Cauchy weight 1 / (1 + (value / soft)^2), and the
         value itself."""
-        sweeps = self.sweeps if self.sweeps is not None else _NO_SWEEPS
         x, y, th = pose
         return _terms(
-            self.field,
-            sweeps,
-            self.sweeps is not None,
-            (float(self.ox), float(self.oy), float(self.res), float(self.max_distance_m)),
+            *self._kernel_args(),
             px,
             py,
             (x, y, math.cos(th), math.sin(th)),
             cut,
             soft,
         )
+
+    def _kernel_args(self) -> tuple[np.ndarray, np.ndarray, bool, tuple[float, ...]]:
+        """What the kernels read of the field: its values, the sweeps (a 1 x 1 stand-in
+        when none), whether there are sweeps, and origin x, y, resolution, max distance."""
+        sweeps = self.sweeps if self.sweeps is not None else _NO_SWEEPS
+        geo = (float(self.ox), float(self.oy), float(self.res), float(self.max_distance_m))
+        return self.field, sweeps, self.sweeps is not None, geo
 
 
 _NO_SWEEPS = np.zeros((1, 1), dtype=np.bool_)
