@@ -45,7 +45,7 @@ from shared.config import ConfigError, FleetConfig
 from shared.lockstep import Participant
 from shared.messages import Ack, Clock, Diagnostics, KeyCounters
 from shared.topics import Keys
-from shared.transport import Bus, Session, open_session
+from shared.transport import Bus, Dispatcher, Session, open_session
 
 EXIT_CONFIG = 2
 EXIT_STEP_FAILED = 3  # a wall-clock step raised: the launcher restarts the service
@@ -143,9 +143,11 @@ def config_from_args(args: argparse.Namespace) -> FleetConfig:
 
 @dataclass
 class Hosting:
-    """Services run as threads of one process, on its one Zenoh ``session``."""
+    """Services run as threads of one process, on its one Zenoh ``session``; their buses
+    deliver on one ``dispatcher`` (None: each its own)."""
 
     session: Session
+    dispatcher: Dispatcher | None = None
     services: dict[str, Service] = field(default_factory=dict)
     stopping: bool = False
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -226,7 +228,12 @@ class Service:
 
     def __enter__(self) -> Service:
         if self.hosting is not None:
-            self.bus = Bus(self.hosting.session, self.name, owns_session=False)
+            self.bus = Bus(
+                self.hosting.session,
+                self.name,
+                owns_session=False,
+                dispatcher=self.hosting.dispatcher,
+            )
             self.hosting.register(self)
         else:
             self.bus = Bus(self._open_session(), self.name)

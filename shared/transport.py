@@ -19,19 +19,21 @@ Ordering: zenoh-python runs each subscriber's callbacks on a thread of its own, 
 loses the order in which samples of different keys arrived (a pose published before a
 clock tick could be handled after it). The bus therefore only enqueues on Zenoh's
 network thread and delivers everything (samples, queries, replies, liveliness changes)
-from one dispatcher thread, in arrival order, holding :attr:`Bus.lock`. Lockstep
+from one :class:`Dispatcher` thread, in arrival order, holding :attr:`Bus.lock`. The
+in-process fleet's buses share one dispatcher, so its deliveries keep one order too. Lockstep
 determinism rests on this, and on publishing with congestion control BLOCK: with zenoh's
 default (DROP) a router whose queue to a busy subscriber is full drops samples silently.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import queue
 import threading
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
 import zenoh
@@ -112,14 +114,96 @@ def open_local_session() -> zenoh.Session:
     return zenoh.open(conf)
 
 
+FLEET_DISPATCHER = "fleet-deliveries"  # the name of the in-process fleet's one dispatcher
+
+
+class Dispatcher:
+    """One thread that delivers the items of one or more buses in arrival order, each
+    under its bus's :attr:`Bus.lock`.
+
+    A bus of its own process has its own. The in-process fleet's buses share one
+    (:class:`~shared.service.Hosting`): with a thread per bus, every message woke another
+    thread that then fought the others for the interpreter lock (about 60 thread
+    switches a tick in the demo); one thread takes them in turn. Its handlers must
+    never block waiting for another bus's delivery (none does: requests are
+    asynchronous, :meth:`Bus.call` is not for handlers).
+    """
+
+    def __init__(self, name: str) -> None:
+        self._inbox: queue.SimpleQueue = queue.SimpleQueue()
+        self._held: list[tuple] | None = None
+        self._held_lock = threading.Lock()
+        self.thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self.thread.start()
+
+    def put(self, bus: Bus, fn: Callable[..., None], args: tuple) -> None:
+        """Queue ``fn(*args)`` for delivery under ``bus``'s lock."""
+        with self._held_lock:
+            if self._held is not None:
+                self._held.append((bus, fn, args))
+                return
+        self._inbox.put((bus, fn, args))
+
+    @contextlib.contextmanager
+    def deferred(self) -> Iterator[None]:
+        """Hand over what arrives meanwhile at the end, in order, with one wake-up.
+
+        For a burst of publishing (the simulator's tick): each message would wake the
+        dispatcher, which then took the interpreter lock from the publisher between two
+        puts, a thread switch each way per message.
+        """
+        with self._held_lock:
+            outer = self._held is not None
+            if not outer:
+                self._held = []
+        if outer:  # already deferred (nested, or another thread): that one hands over
+            yield
+            return
+        try:
+            yield
+        finally:
+            with self._held_lock:
+                held, self._held = self._held, None
+                for job in held:
+                    self._inbox.put(job)
+
+    def _run(self) -> None:
+        while True:
+            job = self._inbox.get()
+            if job is None:
+                return
+            bus, fn, args = job
+            if bus._closing:
+                continue  # shutting down: what is still queued is not delivered
+            try:
+                with bus.lock:
+                    fn(*args)
+            except Exception as exc:  # a handler bug must not stop delivery
+                bus._count_bad(bus.name, f"handler failed: {type(exc).__name__}: {exc}")
+                log.debug("handler traceback", exc_info=True)
+
+    def close(self) -> None:
+        """Stop the thread once what is queued before is delivered (or skipped)."""
+        self._inbox.put(None)
+        if threading.current_thread() is not self.thread:
+            self.thread.join(timeout=2.0)
+
+
 class Bus:
     """Typed wheelnav endpoints over one Zenoh session, delivered in arrival order.
 
     ``owns_session``: :meth:`close` closes the session too. A bus on a session others
-    share (the in-process fleet's) undeclares only its own endpoints.
+    share (the in-process fleet's) undeclares only its own endpoints. ``dispatcher``: the
+    thread that delivers (shared by the in-process fleet's buses); by default its own.
     """
 
-    def __init__(self, session: zenoh.Session, name: str, owns_session: bool = True) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        name: str,
+        owns_session: bool = True,
+        dispatcher: Dispatcher | None = None,
+    ) -> None:
         self.session = session
         self.name = name
         self.owns_session = owns_session
@@ -129,10 +213,10 @@ class Bus:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._keep: list[Any] = []
         self._count_lock = threading.Lock()
-        self._inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._closing = False
-        self._dispatcher = threading.Thread(target=self._dispatch, name=f"{name}-bus", daemon=True)
-        self._dispatcher.start()
+        self._owns_dispatcher = dispatcher is None
+        # public: the in-process fleet's services deliver on their host's bus's dispatcher
+        self.dispatcher = dispatcher or Dispatcher(f"{name}-bus")
 
     # -- delivery -------------------------------------------------------------------------
 
@@ -140,9 +224,10 @@ class Bus:
         self, deliver: Callable[[Any], None], on_drop: Callable[[], None] | None = None
     ) -> zenoh.handlers.Callback:
         """A Zenoh callback that only queues the item (on the network thread, in order)."""
-        drop = (lambda: self._inbox.put((on_drop, ()))) if on_drop else None
+        put = self.dispatcher.put
+        drop = (lambda: put(self, on_drop, ())) if on_drop else None
         return zenoh.handlers.Callback(
-            lambda item: self._inbox.put((deliver, (item,))), drop, indirect=False
+            lambda item: put(self, deliver, (item,)), drop, indirect=False
         )
 
     def _latest_handler(
@@ -169,24 +254,9 @@ class Bus:
             with lock:
                 newest[0] += 1
                 number = newest[0]
-            self._inbox.put((take, (number, msg)))
+            self.dispatcher.put(self, take, (number, msg))
 
         return zenoh.handlers.Callback(arrive, None, indirect=False)
-
-    def _dispatch(self) -> None:
-        while True:
-            job = self._inbox.get()
-            if job is None:
-                return
-            fn, args = job
-            if self._closing:
-                continue  # shutting down: what is still queued is not delivered
-            try:
-                with self.lock:
-                    fn(*args)
-            except Exception as exc:  # a handler bug must not stop delivery
-                self._count_bad(self.name, f"handler failed: {type(exc).__name__}: {exc}")
-                log.debug("handler traceback", exc_info=True)
 
     # -- publish / subscribe ------------------------------------------------------------
 
@@ -404,6 +474,5 @@ class Bus:
         self._publishers.clear()
         if self.owns_session:
             self.session.close()
-        self._inbox.put(None)
-        if threading.current_thread() is not self._dispatcher:
-            self._dispatcher.join(timeout=2.0)
+        if self._owns_dispatcher:
+            self.dispatcher.close()

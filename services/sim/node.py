@@ -40,7 +40,8 @@ from shared.messages import (
 from shared.service import EXIT_CONFIG, Service
 from shared.site import SiteError, load_site
 from sim.hardware_path import HardwarePath, check_hardware_path
-from sim.simulation import Simulation
+from sim.robot import ChairState
+from sim.simulation import Simulation, StepResult
 
 NAME = "sim"
 PROFILE_EVERY = 50  # ticks between two lockstep profiles (sim/profile)
@@ -213,44 +214,10 @@ def _run(
         t1 = clock()
         profile.physics_s += t1 - t0
         stamp = result.stamp
-        rider = ""
-        if hardware is not None:  # the drivers publish the chair's sensors
-            if result.scan is not None:
-                hardware.send_scan(result.scan, time.time())
-            rider = hardware.ride(stamp)
-        else:
-            # the chair's sensors: stamped as a driver stamps them (its host's clock) on wall
-            # time
-            sensed = time.time() + cfg.sim.stamp_offset_s if cfg.clock == "wall" else stamp
-            if result.scan is not None:
-                bus.publish(keys.scan, PointCloud(sensed, "lidar", result.scan))
-            o = sim.odometry
-            # wheel odometry knows nothing of floors: the floor comes from the lift protocol
-            bus.publish(keys.odom, Odometry(sensed, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
-        bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
         events_key = keys.key("events", source=NAME)
-        if result.new_collision:
-            bus.publish(
-                events_key,
-                Event(
-                    stamp,
-                    NAME,
-                    "collision",
-                    f"with {sim.nearest} at ({s.x:.2f}, {s.y:.2f}, "
-                    f"{math.degrees(s.theta):.0f} deg)",
-                    "error",
-                ),
-            )
-        for text in result.events:
-            bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
-        if result.kidnapped:
-            bus.publish(events_key, Event(stamp, NAME, "kidnapped", result.kidnapped, "warning"))
-        if rider:
-            bus.publish(events_key, Event(stamp, NAME, "rider", rider, "info"))
-        if result.new_collision or result.tick % status_every == 0:
-            bus.publish(keys.sim_status, status_message(sim, stamp))
-        if result.tick % PROFILE_EVERY == 0:
-            bus.publish(keys.sim_profile, profile.message(stamp))
+        # the tick's messages go to the (in-process) dispatcher in one hand-over
+        with bus.dispatcher.deferred():
+            _publish_tick(svc, sim, result, s, pose, profile, hardware, status_every)
         t2 = clock()
         profile.publish_s += t2 - t1
         for stage in range(barrier.n_stages):
@@ -288,6 +255,60 @@ def _run(
             if ahead > 0:
                 svc.stop_event.wait(ahead)
             profile.pacing_s += clock() - t3
+
+
+def _publish_tick(
+    svc: Service,
+    sim: Simulation,
+    result: StepResult,
+    s: ChairState,
+    pose: Pose2D,
+    profile: TickProfile,
+    hardware: HardwarePath | None,
+    status_every: int,
+) -> None:
+    """Publish what the simulator knows after a step: the chair's sensors (or hand them to
+    the drivers), the ground truth, events, and now and then its status and profile
+    (``s`` and ``pose``: the chair after the step, read under the bus lock)."""
+    cfg, keys, bus = svc.cfg, svc.keys, svc.bus
+    stamp = result.stamp
+    rider = ""
+    if hardware is not None:  # the drivers publish the chair's sensors
+        if result.scan is not None:
+            hardware.send_scan(result.scan, time.time())
+        rider = hardware.ride(stamp)
+    else:
+        # the chair's sensors: stamped as a driver stamps them (its host's clock) on wall
+        # time
+        sensed = time.time() + cfg.sim.stamp_offset_s if cfg.clock == "wall" else stamp
+        if result.scan is not None:
+            bus.publish(keys.scan, PointCloud(sensed, "lidar", result.scan))
+        o = sim.odometry
+        # wheel odometry knows nothing of floors: the floor comes from the lift protocol
+        bus.publish(keys.odom, Odometry(sensed, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
+    bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
+    events_key = keys.key("events", source=NAME)
+    if result.new_collision:
+        bus.publish(
+            events_key,
+            Event(
+                stamp,
+                NAME,
+                "collision",
+                f"with {sim.nearest} at ({s.x:.2f}, {s.y:.2f}, {math.degrees(s.theta):.0f} deg)",
+                "error",
+            ),
+        )
+    for text in result.events:
+        bus.publish(events_key, Event(stamp, NAME, "watchdog", text, "warning"))
+    if result.kidnapped:
+        bus.publish(events_key, Event(stamp, NAME, "kidnapped", result.kidnapped, "warning"))
+    if rider:
+        bus.publish(events_key, Event(stamp, NAME, "rider", rider, "info"))
+    if result.new_collision or result.tick % status_every == 0:
+        bus.publish(keys.sim_status, status_message(sim, stamp))
+    if result.tick % PROFILE_EVERY == 0:
+        bus.publish(keys.sim_profile, profile.message(stamp))
 
 
 def _wait_stage(

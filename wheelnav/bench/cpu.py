@@ -12,6 +12,8 @@ import os
 import threading
 from pathlib import Path
 
+from shared.transport import FLEET_DISPATCHER
+
 PROC = Path("/proc")
 _TICK_S = 1.0 / os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 0.01
 
@@ -71,9 +73,16 @@ def cpu_seconds() -> dict[str, float]:
     return out
 
 
+DELIVERIES = "deliveries, every service's (one thread)"
+
+
 def _service_of(thread_name: str) -> str:
     """The service a thread works for, from the names the in-process fleet and the bus
-    give them ("service-sim", "sim-bus", "sim-diagnostics" -> sim); else the runner."""
+    give them ("service-sim", "sim-bus", "sim-diagnostics" -> sim); else the runner. The
+    in-process fleet's one dispatcher works for all: its messages and the lockstep steps
+    they start (the stage table splits those by service)."""
+    if thread_name == FLEET_DISPATCHER:
+        return DELIVERIES
     if thread_name.startswith("service-"):
         return thread_name.removeprefix("service-")
     for suffix in ("-bus", "-diagnostics"):

@@ -9,8 +9,9 @@ messaging and scheduling. The limit is 10x real time (issue: fast lockstep).
 
 ``--set launcher.in_process=true`` runs the fleet as threads of the bench's own process
 (wheelnav/launcher/in_process.py); the CPU table is then by the service each thread works
-for. ``--compare`` runs the scenario both ways, one after the other, and prints the two
-factors side by side.
+for, and one row holds the fleet's one dispatcher: every service's deliveries and the
+lockstep steps they run (the stage table splits those by service). ``--compare`` runs
+the scenario both ways, one after the other, and prints the two factors side by side.
 """
 
 from __future__ import annotations

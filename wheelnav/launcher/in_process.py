@@ -74,7 +74,7 @@ class InProcessFleet:
         self.specs = specs
         self.config_path = config_path
         self.on_stopped = on_stopped
-        self.hosting = Hosting(bus.session)
+        self.hosting = Hosting(bus.session, bus.dispatcher)
         self.exit_codes: dict[str, int] = {}
         self._threads: list[threading.Thread] = []
         self._output = _Output(out, [s.name for s in specs])

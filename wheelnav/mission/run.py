@@ -44,7 +44,7 @@ from shared.messages import (
 )
 from shared.site import load_site
 from shared.topics import Keys
-from shared.transport import Bus, open_local_session, open_session
+from shared.transport import FLEET_DISPATCHER, Bus, Dispatcher, open_local_session, open_session
 from sim.hardware_path import check_hardware_path
 from wheelnav.launcher.fleet import services_for, viz_recorder
 from wheelnav.launcher.in_process import InProcessFleet
@@ -149,7 +149,9 @@ class MissionRun:
             in_process = cfg.launcher.in_process and profile == "sim"
             router = None if in_process else RouterProcess(endpoint)
             if router is None:
-                bus = Bus(open_local_session(), NAME)
+                # one dispatcher delivers to the runner and every hosted service
+                dispatcher = Dispatcher(FLEET_DISPATCHER)
+                bus = Bus(open_local_session(), NAME, dispatcher=dispatcher)
             else:
                 router.start()
                 bus = Bus(open_session(TransportConfig(connect=[endpoint])), NAME)
@@ -201,6 +203,7 @@ class MissionRun:
                     session = bus.session
                     bus.close()
                     session.close()
+                    dispatcher.close()
                 else:
                     bus.close()
                     router.stop()
