@@ -32,6 +32,7 @@ MODULES = (
     "services.controller.edt",
     "services.controller.mpc_scene",
     "services.controller.scan_frame",
+    "services.controller.safety",
     "services.controller.manoeuvre",
     "services.planner.grid_astar",
     "services.controller.mpc_guides",

@@ -41,6 +41,7 @@ import numpy as np
 from services.controller import mpc_costs, mpc_numba, mpc_numpy
 from services.controller.command import Command
 from services.controller.mpc_guides import guide_rollout, guide_rollout_nb
+from services.controller.mpc_noise import NoiseStream
 from services.controller.mpc_numpy import rollout_poses
 from services.controller.mpc_scene import (
     FAR,
@@ -94,10 +95,9 @@ class SamplingMPC:
             ControllerConfig().goal_tolerance_m if goal_tolerance_m is None else goal_tolerance_m
         )
         self.lag_s = ControllerConfig().brake_latency_s if lag_s is None else lag_s
-        self._rng = np.random.default_rng(cfg.seed)
+        self._noise = NoiseStream(cfg.seed, (cfg.samples, cfg.steps, 2))
         self._body = footprint_body(robot.footprint, cfg.footprint_spacing_m, cfg.safety_margin_m)
-        self._noise = np.empty((cfg.samples, cfg.steps, 2), dtype=np.float32)
-        self._u = np.empty_like(self._noise)
+        self._u = np.empty((cfg.samples, cfg.steps, 2), dtype=np.float32)
         self._cost = np.empty(cfg.samples)
         self._col = np.empty(cfg.samples, dtype=np.bool_)
         self._groups, self._exact = _sample_groups(cfg)
@@ -197,12 +197,12 @@ class SamplingMPC:
         else:  # cold start: around the first guide (or standing still), wider in w
             nominal[0] = nominal[1] if lanes else 0.0
             scene.sigma[1] = cfg.sigma_w_cold
-        self._rng.standard_normal(out=self._noise, dtype=np.float32)
-        self._noise[self._exact] = 0.0  # the warm start and each guide as they are
-        self._run(scene, self._noise, nominal, self._u, self._cost, self._col, self._groups)
+        noise = self._noise.take()
+        noise[self._exact] = 0.0  # the warm start and each guide as they are
+        self._run(scene, noise, nominal, self._u, self._cost, self._col, self._groups)
         valid = ~self._col
         if not valid.any() and self._loosen(scene):
-            self._run(scene, self._noise, nominal, self._u, self._cost, self._col, self._groups)
+            self._run(scene, noise, nominal, self._u, self._cost, self._col, self._groups)
             valid = ~self._col
         self.last_colliding = float(1.0 - valid.mean())
         if not valid.any():

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
@@ -150,29 +151,69 @@ def near_surface(points: np.ndarray, bin_rad: float, gap_m: float) -> np.ndarray
     range noise (it lies along the beam; a cluster, not a window from the nearest point,
     so one reading far out in the noise does not split its surface); what lies farther in
     the same direction is behind the nearer thing, as a planar LiDAR sees it, and a thing
-    a few beams see is kept where it is read."""
+    a few beams see is kept where it is read. A point with no place (NaN, inf) is left out."""
     if bin_rad <= 0 or len(points) == 0:
         return points
     r = np.hypot(points[:, 0], points[:, 1]).astype(np.float64)
+    if not np.isfinite(r).all():  # no bin for a point with no place (NaN, inf)
+        points, r = points[np.isfinite(r)], r[np.isfinite(r)]
+        if len(points) == 0:
+            return points
     b = np.floor((np.arctan2(points[:, 1], points[:, 0]) + math.pi) / bin_rad).astype(np.int64)
-    order = np.lexsort((r, b))
-    b, r = b[order], r[order]
-    first = np.ones(len(b), dtype=bool)
-    first[1:] = b[1:] != b[:-1]
-    gap = np.zeros(len(b), dtype=bool)
-    gap[1:] = (r[1:] - r[:-1] > gap_m) & ~first[1:]
-    # a point is in its bin's nearest cluster until the bin's first gap
-    starts = np.flatnonzero(first)
-    bin_index = np.cumsum(first) - 1
-    gaps_before = np.cumsum(gap)
-    near = gaps_before == gaps_before[starts][bin_index]
-    bin_of = bin_index[near]
-    counts = np.bincount(bin_of, minlength=len(starts))
-    chosen = points[order[near]]
-    out = np.empty((len(starts), points.shape[1]), dtype=np.float64)
-    for k in range(points.shape[1]):
-        out[:, k] = np.bincount(bin_of, weights=chosen[:, k], minlength=len(starts)) / counts
-    return out.astype(points.dtype, copy=False)
+    if b.max() >= 4 * len(b) + 1024:  # bins far finer than the points: number the used ones
+        b = np.unique(b, return_inverse=True)[1].astype(np.int64)
+    src = np.ascontiguousarray(points)
+    return _nearest_clusters(b, r, src, float(gap_m)).astype(points.dtype, copy=False)
+
+
+def warm_up() -> None:
+    """Compile (or load) :func:`near_surface`'s kernel now, not on the first scan: float32
+    points as the scan brings them, float64 as tests pass them."""
+    for dtype in (np.float32, np.float64):
+        near_surface(np.ones((3, 3), dtype=dtype), 0.01, 0.03)
+
+
+@numba.njit(cache=True)
+def _nearest_clusters(b: np.ndarray, r: np.ndarray, points: np.ndarray, gap_m: float) -> np.ndarray:
+    """Per non-empty bin of ``b`` (ascending), the mean of its nearest cluster's points: the
+    bin's points in order of ``r`` (ties: in input order) up to the first step over
+    ``gap_m``. The same order and float64 sums as a lexsort by (bin, range) then
+    ``np.bincount`` with weights, so the same values bit for bit, in one counting sort."""
+    n, dims = points.shape
+    n_bins = b.max() + 1
+    first = np.zeros(n_bins + 1, dtype=np.int64)  # the bins' starts in the sorted order
+    for i in range(n):
+        first[b[i] + 1] += 1
+    for k in range(n_bins):
+        first[k + 1] += first[k]
+    fill = first[:-1].copy()
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):  # stable: a bin keeps its points in input order
+        order[fill[b[i]]] = i
+        fill[b[i]] += 1
+    out = np.empty((n_bins, dims), dtype=np.float64)
+    used = 0
+    for k in range(n_bins):
+        lo, hi = first[k], first[k + 1]
+        if lo == hi:
+            continue
+        for a in range(lo + 1, hi):  # insertion sort by range, stable (bins are small)
+            i = order[a]
+            c = a - 1
+            while c >= lo and r[order[c]] > r[i]:
+                order[c + 1] = order[c]
+                c -= 1
+            order[c + 1] = i
+        end = lo + 1
+        while end < hi and not r[order[end]] - r[order[end - 1]] > gap_m:
+            end += 1
+        for d in range(dims):
+            total = 0.0
+            for a in range(lo, end):
+                total += np.float64(points[order[a], d])
+            out[used, d] = total / (end - lo)
+        used += 1
+    return out[:used]
 
 
 def guard_points(

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from services.controller import door_bezier, manoeuvre, mpc_scene, scan_frame
+from services.controller import door_bezier, manoeuvre, mpc_scene, safety, scan_frame
 from services.controller.command import Command
 from services.controller.docking import Docker, DockLimits
 from services.controller.mpc import SamplingMPC
@@ -78,6 +78,7 @@ class Tracker:
         door_bezier.warm_up()
         scan_frame.warm_up()  # the node places each scan with it
         mpc_scene.warm_up()
+        safety.warm_up()  # the node bins each scan for the guard with it
         if cfg.mode == "mpc":
             try:
                 self.mpc = SamplingMPC(cfg.mpc, robot, cfg.goal_tolerance_m, cfg.brake_latency_s)

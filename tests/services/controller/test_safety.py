@@ -316,3 +316,46 @@ def test_near_surface_keeps_a_flat_surface_where_it_is_and_what_is_nearer() -> N
     post = pts(*[(0.2 + 0.002 * i, side - 0.1) for i in range(5)])
     seen = near_surface(np.vstack([points, post]), math.radians(0.5), 0.03)
     assert np.min(np.abs(seen[:, 1] - (side - 0.1))) < 0.002
+
+
+def _near_surface_by_sorting(points: np.ndarray, bin_rad: float, gap_m: float) -> np.ndarray:
+    """near_surface as first written (a lexsort by bin and range, means by bincount): the
+    reference its one-pass kernel must equal bit for bit."""
+    r = np.hypot(points[:, 0], points[:, 1]).astype(np.float64)
+    b = np.floor((np.arctan2(points[:, 1], points[:, 0]) + math.pi) / bin_rad).astype(np.int64)
+    order = np.lexsort((r, b))
+    b, r = b[order], r[order]
+    first = np.ones(len(b), dtype=bool)
+    first[1:] = b[1:] != b[:-1]
+    gap = np.zeros(len(b), dtype=bool)
+    gap[1:] = (r[1:] - r[:-1] > gap_m) & ~first[1:]
+    starts = np.flatnonzero(first)
+    bin_index = np.cumsum(first) - 1
+    gaps_before = np.cumsum(gap)
+    near = gaps_before == gaps_before[starts][bin_index]
+    bin_of = bin_index[near]
+    counts = np.bincount(bin_of, minlength=len(starts))
+    chosen = points[order[near]]
+    out = np.empty((len(starts), points.shape[1]), dtype=np.float64)
+    for k in range(points.shape[1]):
+        out[:, k] = np.bincount(bin_of, weights=chosen[:, k], minlength=len(starts)) / counts
+    return out.astype(points.dtype, copy=False)
+
+
+def test_near_surface_equals_the_sorting_reference_bit_for_bit() -> None:
+    rng = np.random.default_rng(7)
+    for i in range(120):
+        dtype = np.float32 if i % 2 else np.float64
+        points = rng.normal(0.0, 2.0, (int(rng.integers(1, 2500)), 3)).astype(dtype)
+        if i % 3 == 0:  # equal ranges in a bin: their order is the input's
+            points[:, :2] = np.round(points[:, :2], 1)
+        bin_rad = math.radians(float(rng.choice([1e-5, 0.25, 0.5, 5.0])))  # 1e-5: sparse bins
+        gap_m = float(rng.choice([0.01, 0.03, 0.2]))
+        got = near_surface(points, bin_rad, gap_m)
+        want = _near_surface_by_sorting(points, bin_rad, gap_m)
+        assert got.dtype == want.dtype and np.array_equal(got, want), i
+    # a point with no place is left out
+    points = rng.normal(0.0, 2.0, (50, 3))
+    holed = np.vstack([points, [[np.nan, 1.0, 0.0], [np.inf, 0.0, 0.0]]])
+    assert np.array_equal(near_surface(holed, 0.01, 0.03), near_surface(points, 0.01, 0.03))
+    assert len(near_surface(np.full((2, 3), np.nan), 0.01, 0.03)) == 0
