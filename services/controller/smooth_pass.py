@@ -295,16 +295,13 @@ class SmoothPass:
     def _excess_at(self, x: float, y: float, th: float) -> tuple[float, bool]:
         """How far the outline strays beyond the half width off the line within the jamb
         (0 if none of it is there), and whether the footprint's centre is in the jamb."""
-        s = self.settings
         along, lat = self._frame(x, y, th)
         in_jamb = np.abs(along) <= self.jamb
         if not in_jamb.any():
             return 0.0, False
-        mid = (s.front_m - s.rear_m) / 2  # the footprint's centre, ahead of the pose
-        centre = float((np.array([x, y]) - self.centre) @ self.normal) + mid * math.cos(
-            th - math.atan2(self.normal[1], self.normal[0])
-        )
-        return float(np.abs(lat[in_jamb]).max()) - s.chair_width / 2, abs(centre) <= self.jamb
+        centre = (along.min() + along.max()) / 2  # the outline's corners are on it
+        excess = float(np.abs(lat[in_jamb]).max()) - self.settings.chair_width / 2
+        return excess, bool(abs(centre) <= self.jamb)
 
     def _on_line(self, x: float, y: float, th: float) -> bool:
         """On the line and along it (within ``ON_LINE_M`` and ``ON_LINE_RAD``): from here

@@ -204,6 +204,7 @@ def _run(
     timeouts = 0
     clock = time.perf_counter
     clock_keys = [keys.clock_of(stage) for stage in range(barrier.n_stages)]
+    events_key = keys.key("events", source=NAME)
     profile.start()
     while not svc.stop_event.is_set():
         t0 = clock()
@@ -214,10 +215,9 @@ def _run(
         t1 = clock()
         profile.physics_s += t1 - t0
         stamp = result.stamp
-        events_key = keys.key("events", source=NAME)
         # the tick's messages go to the (in-process) dispatcher in one hand-over
         with bus.dispatcher.deferred():
-            _publish_tick(svc, sim, result, s, pose, profile, hardware, status_every)
+            _publish_tick(svc, sim, result, s, pose, profile, hardware, status_every, events_key)
         t2 = clock()
         profile.publish_s += t2 - t1
         for stage in range(barrier.n_stages):
@@ -266,6 +266,7 @@ def _publish_tick(
     profile: TickProfile,
     hardware: HardwarePath | None,
     status_every: int,
+    events_key: str,
 ) -> None:
     """Publish what the simulator knows after a step: the chair's sensors (or hand them to
     the drivers), the ground truth, events, and now and then its status and profile
@@ -287,7 +288,6 @@ def _publish_tick(
         # wheel odometry knows nothing of floors: the floor comes from the lift protocol
         bus.publish(keys.odom, Odometry(sensed, Pose2D(o.x, o.y, o.theta, ""), o.v, o.w))
     bus.publish(keys.ground_truth, Odometry(stamp, pose, s.v, s.w, frame="ground_truth"))
-    events_key = keys.key("events", source=NAME)
     if result.new_collision:
         bus.publish(
             events_key,
