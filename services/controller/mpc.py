@@ -204,6 +204,7 @@ class SamplingMPC:
         if not valid.any() and self._loosen(scene):
             self._run(scene, noise, nominal, self._u, self._cost, self._col, self._groups)
             valid = ~self._col
+        self._noise.ahead()
         self.last_colliding = float(1.0 - valid.mean())
         if not valid.any():
             self._nominal = None

@@ -53,7 +53,7 @@ class NoiseStream:
         self._rng = np.random.default_rng(seed)
         self._blocks = (np.empty(shape, dtype=np.float32), np.empty(shape, dtype=np.float32))
         self._next = 0
-        self._pending = _submit(self._filler(0))
+        self._pending: Future | None = _submit(self._filler(0))
 
     def _filler(self, index: int) -> Callable[[], np.ndarray]:
         block = self._blocks[index]
@@ -65,9 +65,18 @@ class NoiseStream:
         return fill
 
     def take(self) -> np.ndarray:
-        """The next block (waits for it if the helper is still drawing it); the one after
-        starts at once into the other buffer."""
+        """The next block (waits for it if the helper is still drawing it). The one after
+        starts on :meth:`ahead`, or here if the caller did not call it since the last take."""
+        if self._pending is None:
+            self.ahead()
         block = self._pending.result()
-        self._next ^= 1
-        self._pending = _submit(self._filler(self._next))
+        self._pending = None
         return block
+
+    def ahead(self) -> None:
+        """Start drawing the block after the last one taken (no-op if started): call it
+        once the taken block's heavy use is over, so the draw does not take the other core
+        from a kernel running on both."""
+        if self._pending is None:
+            self._next ^= 1
+            self._pending = _submit(self._filler(self._next))
