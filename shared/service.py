@@ -45,7 +45,7 @@ from shared.config import ConfigError, FleetConfig
 from shared.lockstep import Participant
 from shared.messages import Ack, Clock, Diagnostics, KeyCounters
 from shared.topics import Keys
-from shared.transport import Bus, Dispatcher, Session, open_session
+from shared.transport import Bus, Dispatcher, LocalExchange, Session, open_session
 
 EXIT_CONFIG = 2
 EXIT_STEP_FAILED = 3  # a wall-clock step raised: the launcher restarts the service
@@ -144,10 +144,12 @@ def config_from_args(args: argparse.Namespace) -> FleetConfig:
 @dataclass
 class Hosting:
     """Services run as threads of one process, on its one Zenoh ``session``; their buses
-    deliver on one ``dispatcher`` (None: each its own)."""
+    deliver on one ``dispatcher`` (None: each its own) and publish to each other through
+    one ``exchange`` (None: through the session)."""
 
     session: Session
     dispatcher: Dispatcher | None = None
+    exchange: LocalExchange | None = None
     services: dict[str, Service] = field(default_factory=dict)
     stopping: bool = False
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -233,6 +235,7 @@ class Service:
                 self.name,
                 owns_session=False,
                 dispatcher=self.hosting.dispatcher,
+                exchange=self.hosting.exchange,
             )
             self.hosting.register(self)
         else:

@@ -3,9 +3,11 @@
 A mission in lockstep spends most of a tick's wall time on messaging between processes
 (through the router and back, with a process switch at every hop), not on the services'
 own work (``wheelnav bench fleet``). Run as threads of the mission runner, the services
-keep their code, their Zenoh endpoints and their msgpack messages, but Zenoh routes every
-message inside the one session. The lockstep protocol is the same, so a run gives the
-same report as with a process per service.
+keep their code and their Zenoh endpoints, but everything stays inside the one session,
+and their buses hand each other checked messages instead of msgpack bytes
+(:class:`~shared.transport.LocalExchange`, when the host's bus has one, as the mission
+runner's does). The lockstep protocol is the same, so a run gives the same report as
+with a process per service.
 
 What processes give and this does not: a service that dies is not restarted (a restart
 test needs processes), and one service's crash can take the others with it. A mission
@@ -74,7 +76,7 @@ class InProcessFleet:
         self.specs = specs
         self.config_path = config_path
         self.on_stopped = on_stopped
-        self.hosting = Hosting(bus.session, bus.dispatcher)
+        self.hosting = Hosting(bus.session, bus.dispatcher, bus.exchange)
         self.exit_codes: dict[str, int] = {}
         self._threads: list[threading.Thread] = []
         self._output = _Output(out, [s.name for s in specs])

@@ -44,7 +44,14 @@ from shared.messages import (
 )
 from shared.site import load_site
 from shared.topics import Keys
-from shared.transport import FLEET_DISPATCHER, Bus, Dispatcher, open_local_session, open_session
+from shared.transport import (
+    FLEET_DISPATCHER,
+    Bus,
+    Dispatcher,
+    LocalExchange,
+    open_local_session,
+    open_session,
+)
 from sim.hardware_path import check_hardware_path
 from wheelnav.launcher.fleet import services_for, viz_recorder
 from wheelnav.launcher.in_process import InProcessFleet
@@ -149,9 +156,12 @@ class MissionRun:
             in_process = cfg.launcher.in_process and profile == "sim"
             router = None if in_process else RouterProcess(endpoint)
             if router is None:
-                # one dispatcher delivers to the runner and every hosted service
+                # one dispatcher delivers to the runner and every hosted service, and
+                # they hand messages to each other as checked objects, not bytes
                 dispatcher = Dispatcher(FLEET_DISPATCHER)
-                bus = Bus(open_local_session(), NAME, dispatcher=dispatcher)
+                bus = Bus(
+                    open_local_session(), NAME, dispatcher=dispatcher, exchange=LocalExchange()
+                )
             else:
                 router.start()
                 bus = Bus(open_session(TransportConfig(connect=[endpoint])), NAME)
