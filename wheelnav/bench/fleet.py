@@ -114,6 +114,8 @@ def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
         "rows": [(name, round(value, 3)) for name, value in rows],
         "serial_compute_ms": round(serial_s * ms, 3),
         "compute_bound_factor": round(sim_s / serial_s, 2) if serial_s > 0 else 0.0,
+        # how much of that bound the run reached (the rest: messaging, hand-overs)
+        "share_of_bound": round(serial_s / p.wall_s, 3) if p.wall_s > 0 else 0.0,
     }
 
 
@@ -198,7 +200,8 @@ def print_figures(figures: dict[str, Any]) -> None:
     print(
         f"the stages' own compute in series (the simulator's step, then each stage's slowest"
         f" participant) is {figures['serial_compute_ms']:.2f} ms a tick: with no messaging at"
-        f" all, lockstep would run at most {figures['compute_bound_factor']:.1f}x real time"
+        f" all, lockstep would run at most {figures['compute_bound_factor']:.1f}x real time;"
+        f" this run reached {100 * figures['share_of_bound']:.0f}% of that bound"
     )
     if "cpu_ms" not in figures:
         return

@@ -64,3 +64,4 @@ def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
     assert figures["serial_compute_ms"] == pytest.approx(6.2)
     assert figures["compute_bound_factor"] == pytest.approx(10.0 / 3.1, abs=0.01)
     assert figures["realtime_factor"] == pytest.approx(2.0)
+    assert figures["share_of_bound"] == pytest.approx(2.0 / (10.0 / 3.1), abs=0.001)
