@@ -35,6 +35,7 @@ import numba
 import numpy as np
 import pybullet as pb
 
+from shared.normals import NormalStream
 from shared.site import GridMap, Site
 from sim.world import WALL_HEIGHT_M
 
@@ -44,6 +45,7 @@ STOREY_TOLERANCE_M = 0.02  # a base this close to a storey's elevation stands on
 SLAB_GAP_M = 1e-3  # rising beams end this far below the next storey (not on its walls' feet)
 BOX_PAD_M = 0.01  # bounding boxes grow by this when picking beams, so grazing ones are cast
 PARKED_Z_M = -1e5  # where ignored bodies wait while beams are cast
+NOISE_THREAD = "sim-noise"  # draws the next scan's range noise (shared/normals.py)
 
 
 class LidarConfigError(ValueError):
@@ -273,6 +275,7 @@ class MultiRingLidar:
         _require(0.0 <= min_range_m < range_m, "min_range_m", "in [0, range_m)", min_range_m)
         _require(height_m > 0, "height_m", "> 0", height_m)
         _require(noise_m >= 0, "noise_m", ">= 0", noise_m)
+        _require(noise_m == 0 or rng is not None, "rng", "a generator when noise_m > 0", rng)
         _require(method in METHODS, "method", f"one of {', '.join(METHODS)}", method)
         _require(
             method != "grid" or bool(static_maps), "method", "auto or pybullet without maps", method
@@ -286,6 +289,13 @@ class MultiRingLidar:
         self.noise_m = float(noise_m)
         self.rng = rng
         self.threads = threads
+        n_beams = rings * n_az
+        # the range noise is drawn a scan ahead (the stream owns rng from here on)
+        self._noise = (
+            NormalStream(rng, 2 * n_beams, NOISE_THREAD)
+            if noise_m > 0 and rng is not None
+            else None
+        )
         if method == "auto":
             method = "grid" if static_maps else "pybullet"
         self.method = method
@@ -404,11 +414,11 @@ class MultiRingLidar:
         else:
             self._cast_all(x, y, theta, base_z, limits, ranges)
         n = _count_returns(ranges, self.min_range_m, self.range_m)
-        noise = (
-            self.rng.standard_normal(n, dtype=np.float32) * np.float32(self.noise_m)
-            if self.noise_m > 0
-            else np.zeros(n, dtype=np.float32)
-        )
+        if self._noise is not None:
+            noise = self._noise.take(n) * np.float32(self.noise_m)
+            self._noise.ahead()
+        else:
+            noise = np.zeros(n, dtype=np.float32)
         return _returns_to_points(ranges, self._dirs32, self.min_range_m, self.range_m, noise)
 
     def _storey(self, base_z: float) -> tuple[float, GridMap, np.ndarray] | None:

@@ -41,7 +41,6 @@ import numpy as np
 from services.controller import mpc_costs, mpc_numba, mpc_numpy
 from services.controller.command import Command
 from services.controller.mpc_guides import guide_rollout, guide_rollout_nb
-from services.controller.mpc_noise import NoiseStream
 from services.controller.mpc_numpy import rollout_poses
 from services.controller.mpc_scene import (
     FAR,
@@ -54,12 +53,14 @@ from services.controller.mpc_scene import (
     wall_field,
 )
 from shared.config import ControllerConfig, MPCConfig, RobotConfig
+from shared.normals import NormalStream
 
 __all__ = ["Evaluation", "MPCConfig", "SamplingMPC", "footprint_points", "rollout_poses"]
 
 
 NEAR_SPEED = 0.1  # m/s: the fastest a cycle samples nearer than the margin (_threshold)
 NEAR_TURN = 0.3  # rad/s
+NOISE_THREAD = "controller-noise"  # draws the next cycle's noise (shared/normals.py)
 THR_WALL, THR_OBS = 8, 9  # where Scene.params holds each field's collision reading
 
 
@@ -95,7 +96,10 @@ class SamplingMPC:
             ControllerConfig().goal_tolerance_m if goal_tolerance_m is None else goal_tolerance_m
         )
         self.lag_s = ControllerConfig().brake_latency_s if lag_s is None else lag_s
-        self._noise = NoiseStream(cfg.seed, (cfg.samples, cfg.steps, 2))
+        self._noise_shape = (cfg.samples, cfg.steps, 2)
+        self._noise = NormalStream(
+            np.random.default_rng(cfg.seed), math.prod(self._noise_shape), NOISE_THREAD
+        )
         self._body = footprint_body(robot.footprint, cfg.footprint_spacing_m, cfg.safety_margin_m)
         self._u = np.empty((cfg.samples, cfg.steps, 2), dtype=np.float32)
         self._cost = np.empty(cfg.samples)
@@ -197,7 +201,7 @@ class SamplingMPC:
         else:  # cold start: around the first guide (or standing still), wider in w
             nominal[0] = nominal[1] if lanes else 0.0
             scene.sigma[1] = cfg.sigma_w_cold
-        noise = self._noise.take()
+        noise = self._noise.take(math.prod(self._noise_shape)).reshape(self._noise_shape)
         noise[self._exact] = 0.0  # the warm start and each guide as they are
         self._run(scene, noise, nominal, self._u, self._cost, self._col, self._groups)
         valid = ~self._col

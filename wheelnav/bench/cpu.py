@@ -85,7 +85,7 @@ def _service_of(thread_name: str) -> str:
         return DELIVERIES
     if thread_name.startswith("service-"):
         return thread_name.removeprefix("service-")
-    for suffix in ("-bus", "-diagnostics", "-noise"):  # -noise: the MPC's (mpc_noise)
+    for suffix in ("-bus", "-diagnostics", "-noise"):  # -noise: drawing ahead (shared/normals.py)
         if thread_name.endswith(suffix):
             return thread_name.removesuffix(suffix)
     return "runner"
