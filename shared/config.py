@@ -224,6 +224,10 @@ class SimConfig:
     )
     start_wait_s: float = field(default=60.0, metadata=check(_non_negative))
     realtime_factor: float = field(default=1.0, metadata=check(_non_negative))
+    # paced to the wall clock, a simulator further behind than this (a starved process)
+    # lets the lost time go instead of running it in a burst the services cannot answer
+    # (services/sim/pacing.py); shorter lags are caught up
+    max_lag_s: float = field(default=0.1, metadata=check(_non_negative))
     watchdog_s: float = field(default=0.3, metadata=check(_positive))
     motor_lag_s: float = field(default=0.1, metadata=check(_non_negative))
     lidar: str = field(default="vlp16", metadata=_one_of("planar", "vlp16"))

@@ -22,6 +22,7 @@ import threading
 import time
 from collections.abc import Callable
 
+from services.sim.pacing import Pacer
 from shared.config import ConfigError
 from shared.estop import EstopLatch, hold_estop
 from shared.lockstep import Barrier, TickProfile
@@ -46,6 +47,7 @@ from sim.simulation import Simulation, StepResult
 NAME = "sim"
 PROFILE_EVERY = 50  # ticks between two lockstep profiles (sim/profile)
 REANNOUNCE_S = 0.5  # wall time between two announcements of a tick still waited for
+STALL_S = 0.25  # wall time let go at one step (services/sim/pacing.py) that is an event
 
 
 def status_message(sim: Simulation, stamp: float) -> SimStatus:
@@ -200,8 +202,12 @@ def _run(
 ) -> None:
     cfg, keys, bus = svc.cfg, svc.keys, svc.bus
     status_every = max(1, round(1.0 / (cfg.sim.status_rate_hz * cfg.sim.dt)))
-    wall_start = time.monotonic()
-    timeouts = 0
+    pacer = (
+        Pacer(cfg.sim.realtime_factor, cfg.sim.max_lag_s, time.monotonic())
+        if cfg.sim.realtime_factor > 0
+        else None
+    )
+    timeouts = stalls = 0
     clock = time.perf_counter
     clock_keys = [keys.clock_of(stage) for stage in range(barrier.n_stages)]
     events_key = keys.key("events", source=NAME)
@@ -249,11 +255,21 @@ def _run(
                     )
             profile.stage_wait_s[stage] += clock() - stage_start
         profile.ticks += 1
-        if cfg.sim.realtime_factor > 0:
+        if pacer is not None:
             t3 = clock()
-            ahead = stamp / cfg.sim.realtime_factor - (time.monotonic() - wall_start)
-            if ahead > 0:
-                svc.stop_event.wait(ahead)
+            wait, slip = pacer.wait_s(stamp, time.monotonic())
+            if wait > 0:
+                svc.stop_event.wait(wait)
+            elif slip >= STALL_S:
+                stalls += 1
+                if stalls <= 10 or stalls % 100 == 0:
+                    detail = (
+                        f"{slip:.2f} s of wall time behind at tick {result.tick}: let go, not "
+                        f"run in a burst (sim.max_lag_s {cfg.sim.max_lag_s:g}; "
+                        f"{pacer.slipped_s:.1f} s so far)"
+                    )
+                    svc.log.warning("%s", detail)
+                    bus.publish(events_key, Event(stamp, NAME, "behind", detail, "warning"))
             profile.pacing_s += clock() - t3
 
 
