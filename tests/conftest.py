@@ -77,3 +77,13 @@ def stop_node(proc: subprocess.Popen, timeout: float) -> str:
         proc.kill()
         _out, err = proc.communicate(timeout=timeout)
     return err
+
+
+def eventually(predicate, timeout_s: float = 10.0) -> bool:
+    """Whether ``predicate()`` holds within ``timeout_s`` of wall time (polled)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return predicate()

@@ -9,15 +9,7 @@ import time
 
 from shared.messages import Clock
 from shared.transport import Bus, Dispatcher, open_local_session
-
-
-def _wait_for(predicate, timeout_s: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return predicate()
+from tests.conftest import eventually
 
 
 class Fleet:
@@ -53,7 +45,7 @@ def test_buses_sharing_a_dispatcher_are_delivered_in_publishing_order_on_its_thr
         time.sleep(0.2)
         for tick in range(200):
             f.pub.publish("t/a" if tick % 3 else "t/b", Clock(0.0, tick, 0.02))
-        assert _wait_for(lambda: len(f.seen) == 200)
+        assert eventually(lambda: len(f.seen) == 200)
         assert [tick for _, tick, _, _ in f.seen] == list(range(200))
         assert [name for name, *_ in f.seen] == ["a" if t % 3 else "b" for t in range(200)]
         assert {thread for _, _, thread, _ in f.seen} == {"test-deliveries"}
@@ -75,7 +67,7 @@ def test_deferred_holds_deliveries_until_the_end_then_hands_them_over_in_order()
                 f.pub.publish("t/a", Clock(0.0, 20, 0.02))
             time.sleep(0.3)
             assert f.seen == []
-        assert _wait_for(lambda: len(f.seen) == 21)
+        assert eventually(lambda: len(f.seen) == 21)
         assert [tick for _, tick, _, _ in f.seen] == list(range(21))
     finally:
         f.close()
@@ -89,11 +81,11 @@ def test_a_failing_handler_is_counted_on_its_bus_and_closing_one_bus_keeps_the_o
         time.sleep(0.2)
         f.pub.publish("t/a", Clock(0.0, 1, 0.02))
         f.pub.publish("t/b", Clock(0.0, 2, 0.02))
-        assert _wait_for(lambda: len(f.seen) == 1)
+        assert eventually(lambda: len(f.seen) == 1)
         assert sum(f.a.bad_messages.values()) == 1 and not f.b.bad_messages
         f.a.close()  # a bus on a shared dispatcher leaves it running for the others
         f.pub.publish("t/b", Clock(0.0, 3, 0.02))
-        assert _wait_for(lambda: len(f.seen) == 2)
+        assert eventually(lambda: len(f.seen) == 2)
         assert f.dispatcher.thread.is_alive()
     finally:
         f.close()

@@ -15,16 +15,8 @@ import pytest
 from shared import messages as m
 from shared.codec import EncodeError, checked, clone, decode, encode, to_plain
 from shared.transport import Bus, Dispatcher, LocalExchange, open_local_session
+from tests.conftest import eventually
 from tests.shared.test_codec import samples
-
-
-def _wait_for(predicate, timeout_s: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return predicate()
 
 
 class Fleet:
@@ -102,7 +94,7 @@ def test_each_subscriber_gets_its_own_copy_in_publishing_order(fleet) -> None:
     fleet["pub"].publish("t/scan", m.PointCloud(1.0, "lidar", pts))
     fleet["pub"].publish("t/clock", m.Clock(1.0, 50, 0.02))
     pts[0, 0] = -7.0  # the publisher's later writes reach nobody
-    assert _wait_for(lambda: len(got["a"]) == 1 and len(got["b"]) == 2)
+    assert eventually(lambda: len(got["a"]) == 1 and len(got["b"]) == 2)
     a, b = got["a"][0], got["b"][0]
     assert [type(x) for x in got["b"]] == [m.PointCloud, m.Clock]
     assert a is not b and a.points is not b.points
@@ -120,8 +112,8 @@ def test_key_expressions_match_as_zenohs_and_a_wrong_type_is_counted(fleet) -> N
     fleet["pub"].publish("w/d1/x/state", m.Clock(0.0, 2, 0.02))
     fleet["pub"].publish("v/d1/state", m.Clock(0.0, 3, 0.02))
     fleet["pub"].publish("w/d2/state", m.Twist(0.0, 0.1, 0.0))  # not a Clock
-    assert _wait_for(lambda: fleet["a"].counters().get("w/*/state", (0, 0))[1] == 1)
-    assert _wait_for(lambda: fleet["b"].counters().get("w/**", (0, 0))[1] == 1)
+    assert eventually(lambda: fleet["a"].counters().get("w/*/state", (0, 0))[1] == 1)
+    assert eventually(lambda: fleet["b"].counters().get("w/**", (0, 0))[1] == 1)
     assert sorted(got) == [("any", 1), ("any", 2), ("one", 1)]
     assert fleet["a"].counters() == {"w/*/state": (2, 1)}
 
@@ -132,7 +124,7 @@ def test_a_bad_message_is_refused_in_the_publisher_and_reaches_nobody(fleet) -> 
     with pytest.raises(EncodeError, match="v"):
         fleet["pub"].publish("t/cmd", m.Twist(0.0, float("nan"), 0.0))
     fleet["pub"].publish("t/cmd", m.Twist(0.0, 0.2, 0.0))
-    assert _wait_for(lambda: len(got) == 1)
+    assert eventually(lambda: len(got) == 1)
     assert got[0].v == 0.2 and fleet["a"].counters() == {"t/cmd": (1, 0)}
 
 
@@ -145,7 +137,7 @@ def test_bytes_put_on_the_session_still_arrive_and_raw_subscribers_get_bytes(fle
     fleet.session.put("t/clock", encode(m.Clock(0.0, 7, 0.02)))  # from outside the exchange
     fleet.session.put("t/clock", b"\x92garbage")
     fleet["pub"].publish("t/clock", m.Clock(0.0, 8, 0.02))
-    assert _wait_for(lambda: len(typed) == 2 and len(raw) == 3)
+    assert eventually(lambda: len(typed) == 2 and len(raw) == 3)
     assert [c.tick for c in typed] == [7, 8]
     assert fleet["a"].counters() == {"t/clock": (3, 1)}
     assert decode(raw[-1][1]).tick == 8 and raw[-1][0] == "t/clock"
@@ -163,7 +155,7 @@ def test_latest_skips_only_superseded_ticks_and_a_closed_bus_takes_nothing(fleet
     for tick in range(5):
         fleet["pub"].publish("t/tick", m.Clock(0.0, tick, 0.02))
     gate.set()
-    assert _wait_for(lambda: got and got[-1] == 4)
+    assert eventually(lambda: got and got[-1] == 4)
     assert got in ([0, 4], [4])  # the one being handled, then the newest
     fleet["a"].close()
     fleet["pub"].publish("t/tick", m.Clock(0.0, 9, 0.02))
