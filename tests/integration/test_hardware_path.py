@@ -14,6 +14,7 @@ Conditions are waited for with generous timeouts; no assertion is on a duration.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import threading
 import time
@@ -41,6 +42,11 @@ WAIT_S = 120.0  # for the run's router to come up
 RIDER = ["sim.riders=[{at_s: 4.0, for_s: 0.5, front: 40}]"]  # mid-corridor, driving
 STILL_MPS, STILL_RADPS = 0.01, 0.02
 HOLD_S = 3.0  # wall time the operator keeps the chair paused, then stopped
+# what the operator's waits may take on a loaded machine, bounded by their own timeouts
+# (each wheelnav command's start-up and answer, the waits for the chair's motion): the
+# mission's clock runs on through them, and a CI run beside another fleet and two busy
+# loops reached the demo's 90 s limit while the operator was still at work
+OPERATOR_WAITS_S = 300.0
 
 
 class Stamps:
@@ -106,7 +112,12 @@ def run_demo(
     overrides = [*HARDWARE_PATH, f"whill.stamp_offset_s={offset_s}", *extra]
     overrides.append(f"vlp16.stamp_offset_s={offset_s}")
     out = Capture()
-    run = MissionRun(load_scenario(DEMO, overrides), out=out, fleet_output=out)
+    scenario = load_scenario(DEMO, overrides)
+    if operator is not None:  # the operator's holds count on the mission's clock too
+        scenario = dataclasses.replace(
+            scenario, time_limit_s=scenario.time_limit_s + OPERATOR_WAITS_S
+        )
+    run = MissionRun(scenario, out=out, fleet_output=out)
     stamps = Stamps(run, out)
     failed: list[str] = []
 
@@ -191,7 +202,7 @@ def assert_driven_through_the_drivers(
 ) -> None:
     """The mission succeeded with the whole hardware path running, its drivers stamping
     ``offset_s`` off the fleet's clock and no pose judged stale for it."""
-    assert report["success"], (report["reason"], text[-4000:])
+    assert report["success"], (report["reason"], report["events"][-20:], text[-3000:])
     assert report["collisions"] == 0
     # the whole hardware path ran: the chair behind the emulated WHILL and its SDK, the
     # scans as packets through the VLP-16 driver; the simulator published neither
