@@ -128,11 +128,9 @@ def clone(msg: Msg) -> Msg:
 
 @functools.cache
 def _deep_fields(cls: type) -> tuple[str, ...]:
-    """The fields of ``cls`` that may hold something mutable (an array, list, message)."""
-    hints = typing.get_type_hints(cls)
-    return tuple(
-        f.name for f in dataclasses.fields(cls) if hints[f.name] not in (float, int, str, bool)
-    )
+    """The fields of ``cls`` that may hold something mutable (an array, list, message):
+    those without a fast test in its :class:`_Plan` (numbers, text, bools are immutable)."""
+    return tuple(name for name, _check, _default, fast, *_ in _plan(cls).fields if not fast)
 
 
 def _cloned(value: Any) -> Any:

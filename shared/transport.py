@@ -377,7 +377,7 @@ class Bus:
             if msg is not None:
                 call(msg)
 
-        def checked(published: str, msg: Msg) -> Msg | None:
+        def from_exchange(published: str, msg: Msg) -> Msg | None:
             """A message from the exchange (checked by its publisher), or None if it is
             not of ``msg_type`` (counted as decoding its bytes would have counted it)."""
             self._count_in(key)
@@ -395,7 +395,7 @@ class Bus:
                     arrive(msg)
 
             def arrive_local(published: str, msg: Msg) -> None:
-                good = checked(published, msg)
+                good = from_exchange(published, msg)
                 if good is not None:
                     arrive(good)
 
@@ -404,7 +404,7 @@ class Bus:
         else:
 
             def deliver_local(published: str, msg: Msg) -> None:
-                good = checked(published, msg)
+                good = from_exchange(published, msg)
                 if good is not None:
                     call(good)
 

@@ -287,15 +287,9 @@ class MultiRingLidar:
         self.min_range_m = float(min_range_m)
         self.height_m = float(height_m)
         self.noise_m = float(noise_m)
-        self.rng = rng
         self.threads = threads
-        n_beams = rings * n_az
-        # the range noise is drawn a scan ahead (the stream owns rng from here on)
-        self._noise = (
-            NormalStream(rng, 2 * n_beams, NOISE_THREAD)
-            if noise_m > 0 and rng is not None
-            else None
-        )
+        # the range noise is drawn a scan ahead: the stream owns rng from here on
+        self._noise = NormalStream(rng, 2 * rings * n_az, NOISE_THREAD) if noise_m > 0 else None
         if method == "auto":
             method = "grid" if static_maps else "pybullet"
         self.method = method

@@ -97,9 +97,8 @@ class SamplingMPC:
         )
         self.lag_s = ControllerConfig().brake_latency_s if lag_s is None else lag_s
         self._noise_shape = (cfg.samples, cfg.steps, 2)
-        self._noise = NormalStream(
-            np.random.default_rng(cfg.seed), math.prod(self._noise_shape), NOISE_THREAD
-        )
+        self._noise_size = math.prod(self._noise_shape)  # one cycle's block
+        self._noise = NormalStream(np.random.default_rng(cfg.seed), self._noise_size, NOISE_THREAD)
         self._body = footprint_body(robot.footprint, cfg.footprint_spacing_m, cfg.safety_margin_m)
         self._u = np.empty((cfg.samples, cfg.steps, 2), dtype=np.float32)
         self._cost = np.empty(cfg.samples)
@@ -201,7 +200,7 @@ class SamplingMPC:
         else:  # cold start: around the first guide (or standing still), wider in w
             nominal[0] = nominal[1] if lanes else 0.0
             scene.sigma[1] = cfg.sigma_w_cold
-        noise = self._noise.take(math.prod(self._noise_shape)).reshape(self._noise_shape)
+        noise = self._noise.take(self._noise_size).reshape(self._noise_shape)
         noise[self._exact] = 0.0  # the warm start and each guide as they are
         self._run(scene, noise, nominal, self._u, self._cost, self._col, self._groups)
         valid = ~self._col
