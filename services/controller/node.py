@@ -74,10 +74,10 @@ class PoseHistory:
 
     def at(self, stamp: float) -> PoseEstimate | None:
         """The newest estimate not after ``stamp`` (the oldest kept if all are after it)."""
-        if not self._poses:
-            return None
-        before = [p for p in self._poses if p.stamp <= stamp + 1e-9]
-        return before[-1] if before else self._poses[0]
+        for est in reversed(self._poses):  # newest first: the scan's pose is near the end
+            if est.stamp <= stamp + 1e-9:
+                return est
+        return self._poses[0] if self._poses else None
 
 
 class ScanCache:

@@ -16,6 +16,7 @@ streams from the emulated chair.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import threading
@@ -148,7 +149,11 @@ def _serve(svc: Service, sim: Simulation, hardware: HardwarePath | None) -> None
     svc.ready()
     linked = hardware.streaming if hardware is not None else None
     _wait_for_fleet(svc, barrier, wake, cfg.sim.lockstep, linked)
-    _run(svc, sim, barrier, wake, profile, hardware)
+    # in lockstep the simulator's thread delivers the fleet's answers itself while it
+    # waits for them (Dispatcher.lent): no hand-over to the dispatcher's thread and back
+    # at every stage
+    with bus.dispatcher.lent() if cfg.sim.lockstep else contextlib.nullcontext():
+        _run(svc, sim, barrier, wake, profile, hardware)
     sim.close()
 
 
@@ -259,7 +264,7 @@ def _run(
             t3 = clock()
             wait, slip = pacer.wait_s(stamp, time.monotonic())
             if wait > 0:
-                svc.stop_event.wait(wait)
+                _idle(svc, wait)
             elif slip >= STALL_S:
                 stalls += 1
                 if stalls <= 10 or stalls % 100 == 0:
@@ -343,16 +348,25 @@ def _wait_stage(
     deadline = time.monotonic() + svc.cfg.sim.lockstep_timeout_s
 
     def done() -> bool:
-        return svc.stop_event.is_set() or not barrier.waiting_on(tick, stage)
+        with wake:
+            return svc.stop_event.is_set() or not barrier.waiting_on(tick, stage)
 
     while True:
         left = deadline - time.monotonic()
-        with wake:
-            if wake.wait_for(done, timeout=max(0.0, min(REANNOUNCE_S, left))):
-                return True
+        if svc.bus.dispatcher.pump(done, max(0.0, min(REANNOUNCE_S, left))):
+            return True
         if left <= REANNOUNCE_S:
             return False
         announce()
+
+
+def _idle(svc: Service, wait_s: float) -> None:
+    """Wait ``wait_s`` (pacing), delivering meanwhile if the dispatcher is lent to this
+    thread (lockstep), or until the service stops."""
+    if not svc.cfg.sim.lockstep:
+        svc.stop_event.wait(wait_s)
+        return
+    svc.bus.dispatcher.pump(svc.stop_event.is_set, wait_s)
 
 
 def _finite(value: float, cap: float = 1e6) -> float:

@@ -7,6 +7,8 @@ from __future__ import annotations
 import threading
 import time
 
+import pytest
+
 from shared.messages import Clock
 from shared.transport import Bus, Dispatcher, open_local_session
 from tests.conftest import eventually
@@ -90,3 +92,47 @@ def test_a_failing_handler_is_counted_on_its_bus_and_closing_one_bus_keeps_the_o
     finally:
         f.close()
     assert not f.dispatcher.thread.is_alive()
+
+
+def test_a_lent_dispatcher_delivers_only_in_pump_on_the_borrower_then_on_its_own_again() -> None:
+    f = Fleet()
+    try:
+        f.listen(f.a, "t/a")
+        f.listen(f.b, "t/b")
+        time.sleep(0.2)
+        f.pub.publish("t/a", Clock(0.0, 0, 0.02))  # queued before: its own thread delivers it
+        with f.dispatcher.lent():
+            assert [tick for _, tick, _, _ in f.seen] == [0]
+            for tick in range(1, 11):
+                f.pub.publish("t/b" if tick % 2 else "t/a", Clock(0.0, tick, 0.02))
+            time.sleep(0.3)
+            assert len(f.seen) == 1  # lent: nothing is delivered outside pump
+            assert f.dispatcher.pump(lambda: len(f.seen) == 11, 5.0)
+            assert not f.dispatcher.pump(lambda: False, 0.2)  # nothing comes: times out
+        f.pub.publish("t/a", Clock(0.0, 11, 0.02))
+        assert eventually(lambda: len(f.seen) == 12)
+        assert [tick for _, tick, _, _ in f.seen] == list(range(12))
+        borrower = threading.current_thread().name
+        threads = [thread for _, _, thread, _ in f.seen]
+        assert threads == ["test-deliveries"] + [borrower] * 10 + ["test-deliveries"]
+        assert all(owned for *_, owned in f.seen)
+    finally:
+        f.close()
+    assert not f.dispatcher.thread.is_alive()
+
+
+def test_pump_needs_the_dispatcher_lent_to_its_thread_and_a_closed_one_delivers_no_more() -> None:
+    f = Fleet()
+    try:
+        f.listen(f.a, "t/a")
+        time.sleep(0.2)
+        with pytest.raises(RuntimeError, match="only inside lent"):
+            f.dispatcher.pump(lambda: True, 0.1)
+        with f.dispatcher.lent():
+            f.dispatcher.close()  # from the borrower: its thread ends once taken back
+            f.pub.publish("t/a", Clock(0.0, 1, 0.02))
+            assert not f.dispatcher.pump(lambda: len(f.seen) == 1, 0.3)
+        assert eventually(lambda: not f.dispatcher.thread.is_alive())
+        assert f.seen == []
+    finally:
+        f.close()

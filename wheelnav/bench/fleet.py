@@ -77,20 +77,28 @@ def cpu_rows(
     }
 
 
-def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
-    """Per-tick wall milliseconds of each part, and the real-time factor."""
+def summarise(
+    p: LockstepProfile, stages: list[list[str]], side_by_side: bool = True
+) -> dict[str, Any]:
+    """Per-tick wall milliseconds of each part, and the real-time factor.
+
+    ``side_by_side``: a stage's participants step at once (a process each), so a stage's
+    compute is its slowest participant's; False (the fleet in one process, one interpreter
+    lock): they step one after another, so it is their sum.
+    """
     n = max(1, p.ticks)
     ms = 1e3 / n
     rows: list[tuple[str, float]] = [("simulator step (chair, LiDAR)", p.physics_s * ms)]
     rows.append(("simulator publishing", p.publish_s * ms))
     compute = dict(zip(p.participants, p.compute_s, strict=True))
     steps = dict(zip(p.participants, p.steps, strict=True))
-    # the floor of a tick in series: the simulator's step, then each stage's slowest
-    # participant (a stage's participants step side by side), with no messaging at all
+    # the floor of a tick in series: the simulator's step, then each stage's compute (its
+    # slowest participant, or all of them one after another), with no messaging at all
     serial_s = p.physics_s
     for k, wait in enumerate(p.stage_wait_s):
         names = stages[k] if k < len(stages) else []
-        serial_s += max((compute[name] for name in names if name in compute), default=0.0)
+        stage_s = [compute[name] for name in names if name in compute]
+        serial_s += max(stage_s, default=0.0) if side_by_side else sum(stage_s)
         rows.append((f"stage {k} wait ({', '.join(names)})", wait * ms))
         for name in names:
             if name in compute:
@@ -113,6 +121,7 @@ def summarise(p: LockstepProfile, stages: list[list[str]]) -> dict[str, Any]:
         "tick_ms": round(p.wall_s * ms, 3),
         "rows": [(name, round(value, 3)) for name, value in rows],
         "serial_compute_ms": round(serial_s * ms, 3),
+        "stage_compute": "slowest participant" if side_by_side else "participants in turn",
         "compute_bound_factor": round(sim_s / serial_s, 2) if serial_s > 0 else 0.0,
         # how much of that bound the run reached (the rest: messaging, hand-overs)
         "share_of_bound": round(serial_s / p.wall_s, 3) if p.wall_s > 0 else 0.0,
@@ -164,8 +173,8 @@ def bench(scenario_path: str, overrides: list[str]) -> dict[str, Any]:
     report = run.run()
     if run.profile is None:
         return {"scenario": scenario.name, "success": False, "error": report["reason"]}
-    figures = summarise(run.profile, scenario.config.sim.lockstep_stages)
     in_process = scenario.config.launcher.in_process
+    figures = summarise(run.profile, scenario.config.sim.lockstep_stages, not in_process)
     cores = 1 if in_process else os.cpu_count() or 1
     cpu = cpu_rows(run.cpu_first, run.cpu_last, run.profile.dt, cores)
     if cpu is not None:
@@ -198,8 +207,9 @@ def print_figures(figures: dict[str, Any]) -> None:
         print(f"  {name:58s} {value:8.3f} {share:>6s}")
     print(f"  {'total':58s} {total:8.3f}")
     print(
-        f"the stages' own compute in series (the simulator's step, then each stage's slowest"
-        f" participant) is {figures['serial_compute_ms']:.2f} ms a tick: with no messaging at"
+        f"the stages' own compute in series (the simulator's step, then each stage's"
+        f" {figures['stage_compute']}) is {figures['serial_compute_ms']:.2f} ms a tick: with"
+        f" no messaging at"
         f" all, lockstep would run at most {figures['compute_bound_factor']:.1f}x real time;"
         f" this run reached {100 * figures['share_of_bound']:.0f}% of that bound"
     )

@@ -65,3 +65,25 @@ def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
     assert figures["compute_bound_factor"] == pytest.approx(10.0 / 3.1, abs=0.01)
     assert figures["realtime_factor"] == pytest.approx(2.0)
     assert figures["share_of_bound"] == pytest.approx(2.0 / (10.0 / 3.1), abs=0.001)
+
+
+def test_in_process_a_stages_participants_are_counted_one_after_another() -> None:
+    profile = LockstepProfile(
+        stamp=10.0,
+        dt=0.02,
+        ticks=500,
+        wall_s=5.0,
+        physics_s=0.5,
+        publish_s=0.4,
+        pacing_s=0.0,
+        stage_wait_s=[1.5, 2.0, 0.3],
+        participants=["localisation", "building", "controller", "navigator"],
+        compute_s=[1.0, 0.25, 1.5, 0.1],
+        steps=[500, 500, 250, 100],
+    )
+    stages = [["localisation", "building", "mission"], ["controller"], ["navigator"]]
+    figures = summarise(profile, stages, side_by_side=False)
+    # one interpreter runs localisation and building in turn: 0.5 + 1.25 + 1.5 + 0.1 s
+    assert figures["serial_compute_ms"] == pytest.approx(6.7)
+    assert figures["stage_compute"] == "participants in turn"
+    assert figures["compute_bound_factor"] == pytest.approx(10.0 / 3.35, abs=0.01)
