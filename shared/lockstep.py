@@ -46,6 +46,12 @@ class Barrier:
                 msg.next_tick, self.next_tick.get(msg.participant, 0)
             )
 
+    def answered(self, tick: int, stage: int) -> bool:
+        """Every live participant of ``stage`` has answered ``tick`` (``waiting_on`` is
+        empty; asked after every delivery while the simulator waits, so no list)."""
+        stage_of, next_tick = self.stage_of, self.next_tick
+        return not any(stage_of[p] == stage and next_tick.get(p, 0) <= tick for p in self.alive)
+
     def waiting_on(self, tick: int, stage: int) -> list[str]:
         """Live participants of ``stage`` that have not yet answered ``tick``."""
         return sorted(

@@ -277,9 +277,12 @@ class Dispatcher:
                 time.sleep(min(left, PUMP_POLL_S))
                 continue
             try:
-                job = self._inbox.get(timeout=min(left, PUMP_POLL_S))
+                job = self._inbox.get_nowait()  # most often one is queued: no timed wait
             except queue.Empty:
-                continue
+                try:
+                    job = self._inbox.get(timeout=min(left, PUMP_POLL_S))
+                except queue.Empty:
+                    continue
             if job is None:
                 self._closed = True
                 continue

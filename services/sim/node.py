@@ -349,7 +349,7 @@ def _wait_stage(
 
     def done() -> bool:
         with wake:
-            return svc.stop_event.is_set() or not barrier.waiting_on(tick, stage)
+            return svc.stop_event.is_set() or barrier.answered(tick, stage)
 
     while True:
         left = deadline - time.monotonic()

@@ -15,10 +15,14 @@ def test_barrier_waits_for_live_participants_of_the_stage() -> None:
     assert b.waiting_on(0, 1) == ["controller", "navigator"]
     b.ack(Ack("controller", 0, 2))
     assert b.waiting_on(0, 1) == ["navigator"]
+    assert not b.answered(0, 1)
     b.ack(Ack("navigator", 0, 5))
     assert b.waiting_on(0, 1) == []
+    assert b.answered(0, 1)
     assert b.waiting_on(2, 1) == ["controller"]
+    assert not b.answered(2, 1)
     assert b.waiting_on(5, 1) == ["controller", "navigator"]
+    assert b.answered(5, 0)  # nobody alive in stage 0
 
 
 def test_dead_participant_is_not_waited_for_and_restarts_due() -> None:
