@@ -108,9 +108,52 @@ def checked(msg: Msg) -> Msg:
     if getattr(cls, "TAG", None) not in REGISTRY:
         raise EncodeError(f"{cls.__name__} is not a registered message type")
     try:
-        return _build(cls, _to_wire(msg), cls.TAG)
+        return _checked(cls, msg, cls.TAG)
     except DecodeError as exc:
         raise EncodeError(str(exc)) from None
+
+
+def _checked(cls: type, msg: Any, path: str) -> Any:
+    """``_build(cls, _to_wire(msg), path)`` without the wire form: each field checked as
+    it is held (a plain value's wire form is itself), a nested message or a list of them
+    checked as objects. A field whose value is of another type takes the wire way, and a
+    list whose items fail is checked again that way for the failing item's path. A
+    navigator's tree snapshot (a list of nodes) took 1.9 ms the wire way."""
+    plan = _plan(cls)
+    values = {}
+    held = msg.__dict__
+    for (name, check, _default, fast, kind, lo, hi, optional), nested in zip(
+        plan.fields, plan.nested, strict=True
+    ):
+        value = held[name]
+        if fast and type(value) is kind:
+            if fast == _NUMBER:
+                if lo <= value <= hi:  # NaN and infinities fail it
+                    values[name] = value
+                    continue
+            elif fast == _BOOL or len(value) <= MAX_TEXT:
+                values[name] = value
+                continue
+        elif optional and value is None:
+            values[name] = None
+            continue
+        if nested is not None:
+            item_cls, many = nested
+            if not many and type(value) is item_cls:
+                values[name] = _checked(item_cls, value, f"{path}.{name}")
+                continue
+            if many and type(value) is list and all(type(v) is item_cls for v in value):
+                try:
+                    values[name] = [_checked(item_cls, v, path) for v in value]
+                    continue
+                except DecodeError:
+                    pass  # the wire way below names the failing item
+        values[name] = check(_field_to_wire(value), f"{path}.{name}")
+    out = cls.__new__(cls)  # every field is in values: what __init__ would set (no hooks)
+    out.__dict__.update(values)
+    if plan.validates:
+        _validate(out, path)
+    return out
 
 
 def clone(msg: Msg) -> Msg:
@@ -260,6 +303,8 @@ class _Plan:
     names: frozenset[str]
     fields: tuple[tuple[str, Check, bool, int, type, Any, Any, bool], ...]
     validates: bool  # the class has checks across its fields (Msg.validate overridden)
+    # per field: (message type, a list of them?) for a nested message or a list of them
+    nested: tuple[tuple[type, bool] | None, ...] = ()
 
 
 @functools.cache
@@ -282,7 +327,16 @@ def _plan(cls: type) -> _Plan:
             for f in fields
         ),
         cls.validate is not Msg.validate,
+        tuple(_nested_type(hints[f.name]) for f in fields),
     )
+
+
+def _nested_type(hint: Any) -> tuple[type, bool] | None:
+    """(message type, whether a list of them) of a field that holds messages, else None."""
+    if typing.get_origin(hint) is list:
+        (item,) = typing.get_args(hint)
+        return (item, True) if dataclasses.is_dataclass(item) else None
+    return (hint, False) if dataclasses.is_dataclass(hint) else None
 
 
 def _fast_test(hint: Any, meta: Any) -> tuple[int, type, Any, Any, bool]:

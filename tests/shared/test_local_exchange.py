@@ -77,6 +77,21 @@ def test_checked_refuses_what_encode_refuses_with_the_same_line() -> None:
         m.Path(1.0, "p", "1", np.zeros((3, 2)), np.zeros(1)),
         m.PointCloud(1.0, "lidar", np.zeros((4, 3), dtype=np.float64)),
         m.Clock(1.0, -1, 0.02),
+        # nested messages are checked as objects: a bad one, or one of a list, is named
+        # as encode names it
+        m.Odometry(1.0, m.Pose2D(float("inf"), 0.0, 0.0, "1"), 0.0, 0.0),
+        m.Odometry(1.0, {"x": 1.0}, 0.0, 0.0),
+        m.TreeSnapshot(
+            1.0,
+            "g",
+            "route",
+            [
+                m.TreeNode(0, -1, "root", "Sequence", "RUNNING"),
+                m.TreeNode(1, 0, "x", "", "", float("nan")),
+            ],
+        ),
+        m.TreeSnapshot(1.0, "g", "route", [m.TreeNode(0, -1, "a", "b", "c"), "not a node"]),
+        m.TreeSnapshot(1.0, "g", "route", [m.TreeNode(0, -1, "a", "b", "c")] * 2),  # validate
     ]
     for msg in bad:
         with pytest.raises(EncodeError) as by_encode:
