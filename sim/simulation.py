@@ -273,6 +273,7 @@ class Simulation:
                 (-fp.rear, fp.width / 2),
             ]
         )
+        self._corner_list = [(float(a), float(b)) for a, b in self._corners]
         self._place_body()
         self._measure()
         if self.in_collision:
@@ -437,13 +438,20 @@ class Simulation:
     def _opening_at(self, x: float, y: float, theta: float) -> Opening | None:
         """The door opening (site door or car door on the chair's floor) whose zone the
         footprint at pose (x, y, theta) is in, if any."""
+        openings = self._openings.get(self.floor, ())
+        if not openings:
+            return None
+        # plain floats on four corners, in numpy's order of operations (the same values):
+        # numpy's calls on 4-element arrays cost more than the arithmetic, every tick
         c, s = math.cos(theta), math.sin(theta)
-        px = x + self._corners[:, 0] * c - self._corners[:, 1] * s
-        py = y + self._corners[:, 0] * s + self._corners[:, 1] * c
-        mx, my = px.mean(), py.mean()
-        for o in self._openings.get(self.floor, ()):
-            along = (px - o.cx) * o.nx + (py - o.cy) * o.ny
-            if along.min() > o.reach or along.max() < -o.reach:
+        px = [x + a * c - b * s for a, b in self._corner_list]
+        py = [y + a * s + b * c for a, b in self._corner_list]
+        mx = (((0.0 + px[0]) + px[1]) + px[2]) + px[3]
+        my = (((0.0 + py[0]) + py[1]) + py[2]) + py[3]
+        mx, my = mx / 4, my / 4
+        for o in openings:
+            along = [(qx - o.cx) * o.nx + (qy - o.cy) * o.ny for qx, qy in zip(px, py, strict=True)]
+            if min(along) > o.reach or max(along) < -o.reach:
                 continue
             if abs((mx - o.cx) * o.ny - (my - o.cy) * o.nx) <= o.side:
                 return o

@@ -27,6 +27,7 @@ from typing import TextIO
 # list against the sources' ``cache=True``)
 MODULES = (
     "shared.geometry",
+    "shared.scan_band",
     "shared.door_scan_numba",
     "shared.door_scan",
     "services.controller.door_bezier",

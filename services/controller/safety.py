@@ -36,6 +36,8 @@ import numpy as np
 
 from shared.config import ControllerConfig, RobotConfig
 from shared.geometry import footprint_gap, moves_close_in, swept_arc_poses, turn_closes_in
+from shared.scan_band import band_points
+from shared.scan_band import warm_up as warm_band
 
 GUARD_SLACK_M = 0.05  # guard_points keeps this much beyond the farthest a check reaches
 
@@ -167,10 +169,11 @@ def near_surface(points: np.ndarray, bin_rad: float, gap_m: float) -> np.ndarray
 
 
 def warm_up() -> None:
-    """Compile (or load) :func:`near_surface`'s kernel now, not on the first scan: float32
-    points as the scan brings them, float64 as tests pass them."""
+    """Compile (or load) :func:`near_surface`'s kernel and the band filter now, not on the
+    first scan: float32 points as the scan brings them, float64 as tests pass them."""
     for dtype in (np.float32, np.float64):
         near_surface(np.ones((3, 3), dtype=dtype), 0.01, 0.03)
+    warm_band()
 
 
 @numba.njit(cache=True)
@@ -237,8 +240,8 @@ def guard_points(
         + margin
         + GUARD_SLACK_M
     )
-    keep = (np.abs(points[:, 2]) < band_m) & (np.hypot(points[:, 0], points[:, 1]) < reach)
-    return near_surface(points[keep], math.radians(cfg.guard_bin_deg), cfg.guard_gap_m)
+    near = band_points(points, band_m, reach)
+    return near_surface(near, math.radians(cfg.guard_bin_deg), cfg.guard_gap_m)
 
 
 def guard(

@@ -17,13 +17,13 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
-
 from services.localisation.localiser import MapLocaliser, MapModeSettings, OdometryLocaliser
 from services.localisation.matcher import DistanceField
 from services.localisation.relocalise import Relocalisation
 from services.localisation.resume import SavedPose, resume_from
 from shared.messages import Clock, Event, Odometry, PointCloud, Pose2D, PoseEstimate
+from shared.scan_band import band_points
+from shared.scan_band import warm_up as warm_band
 from shared.service import Service
 from shared.site import SiteError, load_site
 from shared.state_store import StateStore
@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> None:
                 field = DistanceField.for_floor(site, floor)
                 loc = MapLocaliser(field, x, y, theta, floor, MapModeSettings.from_config(lc))
                 loc.warm_up()
+                warm_band()  # each scan's band is taken with it
             else:
                 loc = OdometryLocaliser(x, y, theta, floor)
         except (SiteError, ValueError) as exc:
@@ -170,8 +171,7 @@ def main(argv: list[str] | None = None) -> None:
                     t0 = time.perf_counter()
                     # a 3-D cloud: keep the band around the sensor's height (walls, not the
                     # floor returns of the downward rings)
-                    pts = scan.points
-                    loc.update_scan(pts[np.abs(pts[:, 2]) < lc.scan_band_m])
+                    loc.update_scan(band_points(scan.points, lc.scan_band_m))
                     state["match_ms"] = 1000 * (time.perf_counter() - t0)
                     report_searches(odom.stamp)
                 lost = loc.lost
