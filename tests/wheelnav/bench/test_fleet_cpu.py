@@ -44,7 +44,9 @@ def test_cpu_rows_divide_by_the_ticks_between_readings_and_bound_the_factor() ->
     assert cpu_rows(first, (100, {"sim": 1.0}), 0.02, 2) is None
 
 
-def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
+def three_stages() -> tuple[LockstepProfile, list[list[str]]]:
+    """500 ticks of 20 ms in 5 s: localisation and building in stage 0, the controller
+    every other tick in stage 1, the navigator every fifth in stage 2."""
     profile = LockstepProfile(
         stamp=10.0,
         dt=0.02,
@@ -58,7 +60,11 @@ def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
         compute_s=[1.0, 0.25, 1.5, 0.1],
         steps=[500, 500, 250, 100],
     )
-    stages = [["localisation", "building", "mission"], ["controller"], ["navigator"]]
+    return profile, [["localisation", "building", "mission"], ["controller"], ["navigator"]]
+
+
+def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
+    profile, stages = three_stages()
     figures = summarise(profile, stages)
     # 0.5 s of steps + 1.0 (localisation, not building) + 1.5 + 0.1 over 500 ticks
     assert figures["serial_compute_ms"] == pytest.approx(6.2)
@@ -68,20 +74,7 @@ def test_the_compute_in_series_takes_each_stages_slowest_participant() -> None:
 
 
 def test_in_process_a_stages_participants_are_counted_one_after_another() -> None:
-    profile = LockstepProfile(
-        stamp=10.0,
-        dt=0.02,
-        ticks=500,
-        wall_s=5.0,
-        physics_s=0.5,
-        publish_s=0.4,
-        pacing_s=0.0,
-        stage_wait_s=[1.5, 2.0, 0.3],
-        participants=["localisation", "building", "controller", "navigator"],
-        compute_s=[1.0, 0.25, 1.5, 0.1],
-        steps=[500, 500, 250, 100],
-    )
-    stages = [["localisation", "building", "mission"], ["controller"], ["navigator"]]
+    profile, stages = three_stages()
     figures = summarise(profile, stages, side_by_side=False)
     # one interpreter runs localisation and building in turn: 0.5 + 1.25 + 1.5 + 0.1 s
     assert figures["serial_compute_ms"] == pytest.approx(6.7)
