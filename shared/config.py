@@ -405,9 +405,10 @@ class MPCConfig:
     footprint_spacing_m: float = field(default=0.1, metadata=check(_positive))
     obstacle_resolution_m: float = field(default=0.025, metadata=check(_positive))
     # computation: "numba" (fast kernel) or "numpy" (vectorised reference); kernel threads
-    # (0 = all; 1 is steadier on a busy CPU); noise seed (same seed, same inputs: same commands)
+    # (0 = as many cores as the machine's load average leaves free, 1 on a busy machine;
+    # results never depend on it); noise seed (same seed, same inputs: same commands)
     backend: str = field(default="numba", metadata=_one_of("numba", "numpy"))
-    threads: int = field(default=1, metadata=check(_non_negative))
+    threads: int = field(default=0, metadata=check(_non_negative))
     seed: int = 0
 
     def validate(self) -> None:

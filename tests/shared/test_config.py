@@ -67,7 +67,7 @@ def test_configuration_doc_lists_every_key() -> None:
 def test_mpc_tuning_has_one_home_with_the_fleets_values() -> None:
     mpc = config.load().controller.mpc
     assert (mpc.w_track, mpc.samples, mpc.steps, mpc.dt) == (10.0, 1000, 21, 0.2)
-    assert (mpc.threads, mpc.safety_margin_m) == (1, 0.05)
+    assert (mpc.threads, mpc.safety_margin_m) == (0, 0.05)
     assert mpc == config.MPCConfig()  # the section's defaults are the class's, nothing else
     cfg = config.load(None, ["controller.mpc.w_track=4", "controller.mpc.guide_offsets_m=[0]"])
     assert cfg.controller.mpc.w_track == 4.0 and cfg.controller.mpc.guide_offsets_m == [0.0]

@@ -424,8 +424,23 @@ def test_same_seed_gives_the_same_commands() -> None:
         closed_loop(cfg, scene, period_s=0.1, max_time_s=2.0, trace=trace)
         return trace
 
-    assert run(7) == run(7) == run(7, threads=2)  # the kernel's threads change nothing
+    # the kernel's threads change nothing, chosen by the load (0) or asked for
+    assert run(7) == run(7) == run(7, threads=2) == run(7, threads=0)
     assert run(7) != run(8)
+
+
+def test_kernel_threads_follow_the_load_when_not_asked_for() -> None:
+    from services.controller.mpc_numba import PARALLEL_MIN_SAMPLES, threads_for
+
+    many = PARALLEL_MIN_SAMPLES
+    assert threads_for(0, many, 2, 1.2) == 2  # the fleet alone: the other core is free
+    assert threads_for(0, many, 2, 3.2) == 1  # two busy loops beside it
+    assert threads_for(0, many, 8, 4.0) == 5  # four other cores busy, its own counted free
+    assert threads_for(0, many, 2, 0.0) == 2  # never more than there are
+    assert threads_for(0, many, 2, None) == 1  # no load average: the steady choice
+    assert threads_for(3, many, 2, 0.0) == 2  # asked for: capped at the cores
+    assert threads_for(1, many, 2, 0.0) == 1
+    assert threads_for(0, many - 1, 2, 0.0) == 1  # a small call stays on one thread
 
 
 # -- reporting ----------------------------------------------------------------------------
