@@ -506,6 +506,11 @@ class ControllerConfig:
     # the strip's margin a side of the chair in a precise pass or docking, instead of
     # robot.side_margin_m: an open leaf beside an 0.80 m door leaves 3-5 cm a side
     precise_side_margin_m: float = field(default=0.02, metadata=check(_non_negative))
+    # in a smooth door pass that narrow margin holds only for points near the door: within
+    # its width (an open leaf's length) plus precise_near_door_m of a jamb; anything else
+    # keeps robot.side_margin_m (campaign b9103.m05: turning in the lead-in, 1.9 m from the
+    # door, a front corner stopped 4.3 cm from a wall)
+    precise_near_door_m: float = field(default=0.1, metadata=check(_non_negative))
     # the scan points those checks see are averaged per azimuth bin of guard_bin_deg (0:
     # every point as read), over the bin's nearest cluster (split where the ranges in order
     # jump by more than guard_gap_m, about three times the LiDAR's range noise): that noise

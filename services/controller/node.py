@@ -185,7 +185,8 @@ def main(argv: list[str] | None = None) -> None:
                 fresh = age <= cc.pose_timeout_s and not pose.lost
                 odom = latest.get("odom")
                 scan = latest.get("scan")
-                obstacles = placed(scan, poses.at(scan.stamp) or pose) if scan is not None else None
+                seen = (poses.at(scan.stamp) or pose) if scan is not None else pose
+                obstacles = placed(scan, seen) if scan is not None else None
                 p = pose.pose
                 new_scan = None
                 if scan is not None and scan.stamp != latest.get("scan_used"):
@@ -218,6 +219,8 @@ def main(argv: list[str] | None = None) -> None:
                     tracker.precise,
                     tracker.turn_margin(),
                     cmd.turn_left_rad,
+                    # the door's jambs seen from where the guard's points were seen
+                    tracker.precise_near(seen.pose.x, seen.pose.y, seen.pose.theta),
                 )
                 cmd_v, cmd_w, state = guard(
                     cmd.v,

@@ -6,7 +6,9 @@ point lies in the stop zone: the strip in front of the footprint (behind it when
 reversing), as wide as the chair plus ``robot.side_margin_m`` each side (in a precise pass
 or docking ``controller.precise_side_margin_m``: beside an 0.80 m door an open leaf leaves
 the chair 3-5 cm a side, and the wide strip caught it on every tick; the arc check below
-keeps the same margin). Its length grows
+keeps the same margin; in a smooth door pass only for points near the door, its jambs and
+leaf, within ``controller.precise_near_door_m`` more than the door's width of a jamb).
+Its length grows
 with speed, as a protective field does: ``stop_distance_m`` at ``robot.max_speed``, in
 proportion below, never under ``stop_min_distance_m`` nor under the braking distance plus
 that; a docking crawl next to a wall
@@ -258,12 +260,14 @@ def guard(
     precise: bool = False,
     turn_margin_m: float | None = None,
     turn_left_rad: float = math.inf,
+    precise_near: tuple[np.ndarray, float] | None = None,
 ) -> tuple[float, float, str]:
     """(v, w, state) after the safety checks; state names the reason when it stops.
     ``precise``: a precise pass or docking, whose margins are narrower (see the module doc);
     ``turn_margin_m``: the margin of a turn on the spot (a docking manoeuvre's, planned
     narrower in a tight room), else ``robot.side_margin_m``; ``turn_left_rad``: how far
-    that turn has to go, when the tracker knows (see :func:`turn_check_angle`)."""
+    that turn has to go, when the tracker knows (see :func:`turn_check_angle`);
+    ``precise_near``: where the narrow margin holds (see :func:`obstacle_check`)."""
     if not pose_ok:
         return 0.0, 0.0, "stale_pose" if state not in ("arrived", "idle") else state
     if state in ("arrived", "idle"):
@@ -271,11 +275,25 @@ def guard(
     if scan_stamp is None or now - scan_stamp > cfg.scan_timeout_s:
         return 0.0, 0.0, "stale_scan"
     held = obstacle_check(
-        v, w, scan_points, robot, cfg, band_m, precise, turn_margin_m, turn_left_rad
+        v, w, scan_points, robot, cfg, band_m, precise, turn_margin_m, turn_left_rad, precise_near
     )
     if held:
         return 0.0, 0.0, "obstacle"
     return v, w, state
+
+
+def split_near(
+    points: np.ndarray | None, centres: np.ndarray, radius: float
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The points (N, 3) within ``radius`` of one of ``centres`` (K, 2; same frame) in the
+    plane, and the rest."""
+    if points is None or len(points) == 0:
+        return points, points
+    c = np.asarray(centres, dtype=float).reshape(-1, 2)
+    dx = points[:, 0, None].astype(float) - c[None, :, 0]
+    dy = points[:, 1, None].astype(float) - c[None, :, 1]
+    near = (dx * dx + dy * dy <= radius * radius).any(axis=1)
+    return points[near], points[~near]
 
 
 def obstacle_check(
@@ -288,19 +306,29 @@ def obstacle_check(
     precise: bool = False,
     turn_margin_m: float | None = None,
     turn_left_rad: float = math.inf,
+    precise_near: tuple[np.ndarray, float] | None = None,
 ) -> str:
     """Which of :func:`guard`'s obstacle checks holds (v, w): "strip" (a point in the stop
     zone), "arc" (the footprint along the arc it drives), "turn" (a turn on the spot), or
-    "" for none. The node logs it, with the nearest point, when a hold starts."""
-    margin = cfg.precise_side_margin_m if precise else robot.side_margin_m
-    half = robot.footprint.width / 2 + margin
+    "" for none. The node logs it, with the nearest point, when a hold starts.
+    ``precise_near`` (centres (K, 2) in the robot frame, radius): where a precise pass keeps
+    its narrow margin (a door's jambs and leaf); other points keep ``robot.side_margin_m``.
+    Without it a precise pass keeps the narrow margin everywhere (docking, lift cars)."""
+    wide = robot.side_margin_m
+    if precise and precise_near is not None:
+        near, far = split_near(scan_points, *precise_near)
+        groups = [(near, cfg.precise_side_margin_m), (far, wide)]
+    else:
+        groups = [(scan_points, cfg.precise_side_margin_m if precise else wide)]
     length = stop_zone_length(v, robot, cfg)
-    if stop_zone_hit(scan_points, robot, v, length, band_m, half):
-        return "strip"
+    for pts, margin in groups:
+        if stop_zone_hit(pts, robot, v, length, band_m, robot.footprint.width / 2 + margin):
+            return "strip"
     turning = abs(v) < cfg.turn_check_below_mps
     turn_end = turn_left_rad + braking_turn(w, robot, cfg)
-    if not turning and arc_sweep_hit(scan_points, robot, v, w, length, band_m, margin, turn_end):
-        return "arc"
+    for pts, margin in groups if not turning else ():
+        if arc_sweep_hit(pts, robot, v, w, length, band_m, margin, turn_end):
+            return "arc"
     angle = turn_check_angle(w, robot, cfg, turn_left_rad)
     turn_margin = robot.side_margin_m if turn_margin_m is None else turn_margin_m
     if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, turn_margin):

@@ -152,6 +152,12 @@ class SmoothPass:
         w = min(self.settings.max_turn_rate, math.sqrt(2 * self.settings.turn_accel * to_turn))
         return w / abs(float(k[0]))
 
+    def jambs(self) -> np.ndarray:
+        """The door's two jambs (2, 2; map frame) as the pass knows the door now: the scan's
+        centre and width once it shows them, the map's before."""
+        along = np.array([-self.normal[1], self.normal[0]]) * (self.width / 2)
+        return np.stack([self.centre - along, self.centre + along])
+
     def to_go(self, pose: tuple[float, float, float]) -> float:
         """How far the reference point still is from the pass's end, along the door's
         normal (from before the plane: the lead and the curve's start not counted)."""

@@ -14,6 +14,8 @@ Pure: the node hands in poses, speeds and points.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
@@ -119,6 +121,19 @@ class Tracker:
     def precise(self) -> bool:
         """True while following a precise pass or docking (not a leg)."""
         return self.docker.active or self._precise
+
+    def precise_near(self, x: float, y: float, theta: float) -> tuple[np.ndarray, float] | None:
+        """Where the guard keeps the precise margin, for the chair at (x, y, theta): in a
+        smooth pass, near the door (its jambs in the robot frame, and the door's width plus
+        ``precise_near_door_m``: an open leaf is as long as its door is wide); None (no
+        limit) in any other precise pass or docking, which knows no door."""
+        if self.smooth is None:
+            return None
+        d = self.smooth.jambs() - np.array([x, y])
+        c, s = math.cos(theta), math.sin(theta)
+        local = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+        width = max(self.smooth.width, self.smooth.settings.door_width)
+        return local, width + self.cfg.precise_near_door_m
 
     def turn_margin(self) -> float:
         """The margin the safety check of a turn on the spot keeps now (see the docker)."""

@@ -14,6 +14,7 @@ from services.controller.safety import (
     guard_points,
     near_surface,
     obstacle_check,
+    split_near,
     stop_zone_hit,
     stop_zone_length,
     turn_check_angle,
@@ -199,6 +200,38 @@ def test_a_turn_at_speed_stops_before_the_corner_sweeps_into_a_wall_beside_the_s
     assert guard(0.5, -0.5, "following", scan_points=wall, **ok)[2] == "following"  # away
     jamb = pts((0.2, 0.36), (0.6, -0.36))  # passing between jambs 3.5 cm a side: not nearer
     assert guard(0.2, 0.0, "following", scan_points=jamb, precise=True, **ok)[2] == "following"
+
+
+def test_a_smooth_pass_keeps_the_narrow_margin_only_near_its_door() -> None:
+    """Campaign b9103.m05 and b9105.m03: in the lead-in of a smooth pass, 1.8-1.9 m from the
+    door, the chair turned and crept on until the guard held it with a front corner 4.3 cm
+    from a wall: a precise pass kept the 2 cm margin for every point. Near its door (the
+    jambs, an open leaf) it still does; anything else keeps the robot's side margin."""
+    wall = pts((0.83, 0.36))  # 7.8 cm off the front-left corner, ahead of it
+    args = (0.1, 0.0, wall, ROBOT, CFG, 0.5)
+    assert obstacle_check(*args) == "arc"  # the robot's margin
+    assert obstacle_check(*args, precise=True) == ""  # the narrow one, no door known
+    far_door = (np.array([[2.5, 1.0], [2.5, 1.9]]), 1.0)  # jambs 1.8 m away and more
+    assert obstacle_check(*args, precise=True, precise_near=far_door) == "arc"
+    near_door = (np.array([[0.9, 0.40], [0.9, -0.5]]), 1.0)  # the point is a jamb
+    assert obstacle_check(*args, precise=True, precise_near=near_door) == ""
+    assert obstacle_check(*args, precise=False, precise_near=near_door) == "arc"  # not precise
+    ok = dict(now=10.0, pose_ok=True, scan_stamp=9.9, robot=ROBOT, cfg=CFG, band_m=0.5)
+    held = guard(0.1, 0.0, "following", scan_points=wall, precise=True, precise_near=far_door, **ok)
+    assert held[2] == "obstacle"
+
+
+def test_split_near_keeps_every_point_once() -> None:
+    rng = np.random.default_rng(3)
+    cloud = rng.uniform(-3, 3, size=(500, 3)).astype(np.float32)
+    centres = np.array([[0.5, 0.5], [-1.0, 2.0]])
+    near, far = split_near(cloud, centres, 1.0)
+    assert len(near) + len(far) == len(cloud) and len(near) > 0 and len(far) > 0
+    d = np.hypot(near[:, None, 0] - centres[None, :, 0], near[:, None, 1] - centres[None, :, 1])
+    assert (d.min(axis=1) <= 1.0).all()
+    d = np.hypot(far[:, None, 0] - centres[None, :, 0], far[:, None, 1] - centres[None, :, 1])
+    assert (d.min(axis=1) > 1.0).all()
+    assert split_near(None, centres, 1.0) == (None, None)
 
 
 def _stop_before_a_wall(v: float) -> float:

@@ -76,6 +76,19 @@ def smooth_tracker(cfg) -> Tracker:
     return tracker
 
 
+def test_a_smooth_pass_tells_the_guard_where_its_door_is() -> None:
+    """The jambs of door_ab (1.0 m at x = 6.2, y 2.2-3.2) in the robot frame of a chair at
+    (5.2, 2.7) facing +y, and the reach of the narrow margin: the door's width and
+    ``precise_near_door_m``. No smooth pass, no door: None."""
+    cfg = load()
+    tracker = smooth_tracker(cfg)
+    jambs, reach = tracker.precise_near(5.2, 2.7, math.pi / 2)
+    assert sorted(map(tuple, np.round(jambs, 6).tolist())) == [(-0.5, -1.0), (0.5, -1.0)]
+    assert reach == 1.0 + cfg.controller.precise_near_door_m
+    tracker.set_path("leg", np.array([[5.2, 2.7], [7.4, 2.7]]), np.array([0.5, 0.0]))
+    assert tracker.precise_near(5.2, 2.7, 0.0) is None
+
+
 def test_a_smooth_pass_path_goes_through_the_door_it_sees_without_stopping() -> None:
     # the path the navigator sends for a smooth pass: door_ab (1.0 m at x = 6.2), the
     # approach line 1.0 m before it, the end 1.2 m past; the chair starts 0.3 m aside
