@@ -55,9 +55,10 @@ def threads_for(asked: int, samples: int, cores: int, load: float | None) -> int
     """Kernel threads for one call: ``asked`` (capped at ``cores``), or with ``asked`` 0 as
     many as the machine's 1-minute ``load`` average leaves free, counting the caller's own
     core as free (``cores - load + 1``, rounded, at least 1); one thread when the load is
-    unknown or the call is small. On a 2-core machine the in-process demo ran 7-18% faster
-    on two threads when nothing else ran (load about 1.2), and up to 17% slower with two
-    busy loops beside it (load above 3: the other thread waits for a time slice)."""
+    unknown or the call is small. On a 2-core machine the in-process demo ran faster on two
+    threads when nothing else ran (load about 1.2; by up to 18%, in five of six pairs), and
+    up to 17% slower with two busy loops beside it (load above 3: the other thread waits
+    for a time slice)."""
     if samples < PARALLEL_MIN_SAMPLES:
         return 1  # waking the other threads costs more than the few samples
     if asked:
