@@ -18,6 +18,13 @@ def angle_between(a: float, b: float) -> float:
     return abs(wrap_angle(a - b))
 
 
+def into_frame(xy: np.ndarray, x: float, y: float, theta: float) -> np.ndarray:
+    """Map-frame points (N, 2) in the frame of a pose (x, y, theta): x forwards, y left."""
+    c, s = math.cos(theta), math.sin(theta)
+    dx, dy = xy[:, 0] - x, xy[:, 1] - y
+    return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+
+
 def in_footprint(
     xy: np.ndarray, front: float, rear: float, width: float, margin: float = 0.0
 ) -> np.ndarray:

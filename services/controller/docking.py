@@ -55,6 +55,7 @@ from shared.config import ControllerConfig, Footprint, RobotConfig
 from shared.geometry import (
     angle_between,
     in_footprint,
+    into_frame,
     moves_close_in,
     swept_arc_poses,
     turn_closes_in,
@@ -616,10 +617,7 @@ class Docker:
         fp, pts = self.footprint, self._obstacles
         if pts is None or fp is None or len(pts) == 0:
             return None
-        x, y, theta = self._pose
-        c, s = math.cos(theta), math.sin(theta)
-        dx, dy = pts[:, 0] - x, pts[:, 1] - y
-        return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+        return into_frame(pts, *self._pose)
 
     def _fits(self, heading: float, pts: np.ndarray | None) -> bool:
         """True if the footprint (grown by ``margin_m``) at the goal point facing
@@ -639,10 +637,7 @@ class Docker:
         fp = self.footprint
         if pts is None or fp is None or len(pts) == 0:
             return True
-        gx, gy, _ = pose
-        c, s = math.cos(heading), math.sin(heading)
-        dx, dy = pts[:, 0] - gx, pts[:, 1] - gy
-        local = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+        local = into_frame(pts, pose[0], pose[1], heading)
         return not bool(in_footprint(local, fp.front, fp.rear, fp.width, margin).any())
 
     def _backwards_to(self, direction: float, dist: float) -> bool:

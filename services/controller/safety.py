@@ -326,9 +326,10 @@ def obstacle_check(
             return "strip"
     turning = abs(v) < cfg.turn_check_below_mps
     turn_end = turn_left_rad + braking_turn(w, robot, cfg)
-    for pts, margin in groups if not turning else ():
-        if arc_sweep_hit(pts, robot, v, w, length, band_m, margin, turn_end):
-            return "arc"
+    if not turning:
+        for pts, margin in groups:
+            if arc_sweep_hit(pts, robot, v, w, length, band_m, margin, turn_end):
+                return "arc"
     angle = turn_check_angle(w, robot, cfg, turn_left_rad)
     turn_margin = robot.side_margin_m if turn_margin_m is None else turn_margin_m
     if turning and turn_sweep_hit(scan_points, robot, w, angle, band_m, turn_margin):

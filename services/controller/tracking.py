@@ -14,8 +14,6 @@ Pure: the node hands in poses, speeds and points.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
@@ -129,11 +127,9 @@ class Tracker:
         limit) in any other precise pass or docking, which knows no door."""
         if self.smooth is None:
             return None
-        d = self.smooth.jambs() - np.array([x, y])
-        c, s = math.cos(theta), math.sin(theta)
-        local = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
-        width = max(self.smooth.width, self.smooth.settings.door_width)
-        return local, width + self.cfg.precise_near_door_m
+        sm = self.smooth
+        reach = max(sm.width, sm.settings.door_width) + self.cfg.precise_near_door_m
+        return geometry.into_frame(sm.jambs(), x, y, theta), reach
 
     def turn_margin(self) -> float:
         """The margin the safety check of a turn on the spot keeps now (see the docker)."""
